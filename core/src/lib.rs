@@ -1,1 +1,4 @@
+//! Nucleus core: knows no constraint type.
 
+pub mod complex;
+pub mod schedule;
