@@ -1,1 +1,318 @@
-fn main() {}
+//! `nucleus`: loads plugin directories and runs scenes.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+
+use clap::{Args, Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+use nucleus_core::output::RunOutput;
+use nucleus_core::plugins::{search_path, Registry};
+use nucleus_core::schedule::{describe, Slot};
+use nucleus_core::{Scene, Simulation};
+
+#[derive(Parser)]
+#[command(
+    name = "nucleus",
+    version,
+    about = "Nucleus: a unified dynamics solver with constraint plugins"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Args, Clone)]
+struct PluginArgs {
+    /// Plugin directory to search (repeatable); searched before NUCLEUS_PLUGIN_PATH and the
+    /// default `plugins/` next to the executable.
+    #[arg(long = "plugins", value_name = "DIR")]
+    plugins: Vec<PathBuf>,
+    /// Do not search the default `plugins/` directory next to the executable.
+    #[arg(long)]
+    no_default_plugins: bool,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run a scene: writes DIR/frame_NNNN.obj per frame, DIR/stats.csv and DIR/run.json.
+    Run {
+        /// The scene file (TOML).
+        scene: PathBuf,
+        /// Output directory [default: out/<scene name>].
+        #[arg(long, value_name = "DIR")]
+        out: Option<PathBuf>,
+        /// Override the number of frames.
+        #[arg(long)]
+        frames: Option<u32>,
+        /// Override the substeps per frame.
+        #[arg(long)]
+        substeps: Option<u32>,
+        /// Override the iterations (importance multiplier).
+        #[arg(long)]
+        iterations: Option<u32>,
+        /// Print plugins, groups and the schedule.
+        #[arg(long, short)]
+        verbose: bool,
+        /// Print nothing but errors.
+        #[arg(long, short)]
+        quiet: bool,
+        #[command(flatten)]
+        plugin_args: PluginArgs,
+    },
+    /// List every plugin found, its kinds, their default order/importance and parameters.
+    Plugins {
+        #[command(flatten)]
+        plugin_args: PluginArgs,
+    },
+}
+
+/// An error with the exit code it maps to.
+struct Failure {
+    code: u8,
+    message: String,
+}
+
+impl Failure {
+    fn input(message: impl std::fmt::Display) -> Self {
+        Self {
+            code: 2,
+            message: message.to_string(),
+        }
+    }
+    fn run(message: impl std::fmt::Display) -> Self {
+        Self {
+            code: 1,
+            message: message.to_string(),
+        }
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Run {
+            scene,
+            out,
+            frames,
+            substeps,
+            iterations,
+            verbose,
+            quiet,
+            plugin_args,
+        } => run(RunArgs {
+            scene,
+            out,
+            frames,
+            substeps,
+            iterations,
+            verbose,
+            quiet,
+            plugin_args,
+        }),
+        Command::Plugins { plugin_args } => list_plugins(&plugin_args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(f) => {
+            eprintln!("error: {}", f.message);
+            ExitCode::from(f.code)
+        }
+    }
+}
+
+fn discover(args: &PluginArgs, quiet: bool) -> Result<Registry, Failure> {
+    let dirs = search_path(&args.plugins, !args.no_default_plugins);
+    let registry = Registry::discover(&dirs);
+    if !quiet {
+        for w in &registry.warnings {
+            eprintln!("warning: {w}");
+        }
+        for r in &registry.refused {
+            eprintln!("warning: {}: refused: {}", r.path.display(), r.cause);
+        }
+    }
+    if let Some(e) = registry.duplicate_kinds().first() {
+        return Err(Failure::input(e));
+    }
+    Ok(registry)
+}
+
+fn list_plugins(args: &PluginArgs) -> Result<(), Failure> {
+    let registry = discover(args, false)?;
+    println!(
+        "searched: {}",
+        registry
+            .dirs
+            .iter()
+            .map(|d| d.display().to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    if registry.plugins.is_empty() {
+        println!("no plugins found");
+    }
+    for p in &registry.plugins {
+        println!(
+            "\n{} {} (SDK ABI {}) — {}",
+            p.info.name,
+            p.info.version,
+            p.info.sdk_abi_version,
+            p.path.display()
+        );
+        for k in p.info.kinds.iter() {
+            println!(
+                "  kind `{}`: order {}, importance {}, residual in {}",
+                k.name, k.default_order, k.default_importance, k.residual_unit
+            );
+            for line in k.doc.as_str().lines() {
+                println!("    {line}");
+            }
+            for prm in k.params.iter() {
+                let unit = if prm.unit.is_empty() {
+                    String::new()
+                } else {
+                    format!(" [{}]", prm.unit)
+                };
+                let range = if prm.min.is_finite() || prm.max.is_finite() {
+                    format!(", range [{}, {}]", prm.min, prm.max)
+                } else {
+                    String::new()
+                };
+                println!(
+                    "    - {} ({}{unit}) = {}{range}: {}",
+                    prm.name,
+                    prm.ty.name(),
+                    prm.default,
+                    prm.doc
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+struct RunArgs {
+    scene: PathBuf,
+    out: Option<PathBuf>,
+    frames: Option<u32>,
+    substeps: Option<u32>,
+    iterations: Option<u32>,
+    verbose: bool,
+    quiet: bool,
+    plugin_args: PluginArgs,
+}
+
+fn default_out(scene: &Path) -> PathBuf {
+    let stem = scene
+        .file_stem()
+        .map_or_else(|| "scene".into(), |s| s.to_string_lossy().to_string());
+    PathBuf::from("out").join(stem)
+}
+
+fn run(args: RunArgs) -> Result<(), Failure> {
+    let mut scene = Scene::load(&args.scene).map_err(Failure::input)?;
+    if let Some(f) = args.frames {
+        scene.file.solver.frames = f;
+    }
+    if let Some(s) = args.substeps {
+        if s == 0 {
+            return Err(Failure::input("--substeps must be at least 1"));
+        }
+        scene.file.solver.substeps = s;
+    }
+    if let Some(i) = args.iterations {
+        if i == 0 {
+            return Err(Failure::input("--iterations must be at least 1"));
+        }
+        scene.file.solver.iterations = i;
+    }
+    let registry = discover(&args.plugin_args, args.quiet)?;
+    let mut sim = Simulation::build(&scene, &registry).map_err(Failure::input)?;
+    if args.verbose {
+        let mut used: Vec<String> = sim
+            .groups
+            .iter()
+            .map(|g| format!("{} ({})", g.plugin, g.path.display()))
+            .collect();
+        used.dedup();
+        eprintln!("plugins used: {}", used.join(", "));
+        for g in &sim.groups {
+            eprintln!(
+                "group `{}`: kind `{}`, {} constraints, order {}, importance {}",
+                g.name, g.kind, g.len, g.order, g.importance
+            );
+        }
+        let names: Vec<&str> = sim.groups.iter().map(|g| g.name.as_str()).collect();
+        let slots: Vec<Slot> = sim
+            .groups
+            .iter()
+            .map(|g| Slot {
+                order: g.order,
+                importance: if g.len > 0 { g.importance * sim.settings.iterations } else { 0 },
+            })
+            .collect();
+        eprintln!("schedule per substep:\n{}", describe(&names, &slots, sim.settings.schedule));
+    }
+    let out_dir = args.out.unwrap_or_else(|| default_out(&args.scene));
+    let frames = sim.settings.frames as u64;
+    let mut out = RunOutput::create(&out_dir, &mut sim).map_err(Failure::run)?;
+    out.write_frame(&sim).map_err(Failure::run)?;
+
+    let bar = if args.quiet {
+        ProgressBar::hidden()
+    } else {
+        let b = ProgressBar::new(frames);
+        b.set_style(
+            ProgressStyle::with_template("{spinner} frame {pos}/{len} {wide_bar} {elapsed}/{duration} {msg}")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        b
+    };
+    let started = Instant::now();
+    let mut step_time = 0.0;
+    for _ in 0..frames {
+        let t = Instant::now();
+        let stepped = sim.step_frame();
+        let wall = t.elapsed().as_secs_f64();
+        step_time += wall;
+        if let Err(e) = stepped {
+            bar.abandon();
+            let msg = e.to_string();
+            let _ = out.fail(sim.frame, &msg);
+            return Err(Failure::run(format!(
+                "{msg} (frames written so far are intact in {}; run.json says failed)",
+                out_dir.display()
+            )));
+        }
+        out.write_frame(&sim).map_err(Failure::run)?;
+        if let Err(e) = out.write_stats(&mut sim, wall) {
+            let msg = e.to_string();
+            let _ = out.fail(sim.frame, &msg);
+            return Err(Failure::run(msg));
+        }
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    let residuals = sim.residuals().map_err(Failure::run)?;
+    let mut summary = format!(
+        "{} frames, {} particles, {} groups; step {:.3} ms/frame; total {:.2} s",
+        frames,
+        sim.particles.len(),
+        sim.groups.len(),
+        1e3 * step_time / frames.max(1) as f64,
+        started.elapsed().as_secs_f64()
+    );
+    for (g, r) in sim.groups.iter().zip(&residuals) {
+        summary.push_str(&format!(
+            "; {} residual max {:.3e} rms {:.3e} {}",
+            g.name, r.max, r.rms, g.residual_unit
+        ));
+    }
+    out.finish(frames, &summary).map_err(Failure::run)?;
+    if !args.quiet {
+        println!("{summary}");
+        println!("wrote {}", out_dir.display());
+    }
+    Ok(())
+}

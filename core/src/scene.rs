@@ -1,0 +1,621 @@
+//! Scene files: what to simulate, in TOML.
+//!
+//! A scene has `[solver]` settings, `[[objects]]` (each with exactly one shape table:
+//! `grid`, `rope`, `particles`, `tet_box` or `mesh`), and `[[constraints]]` groups (a kind,
+//! the objects it applies to, its parameters, and optional order/importance overrides).
+//! Every table denies unknown fields, so a misspelt key fails loudly with its line and column.
+//!
+//! ```toml
+//! [solver]
+//! frame_rate = 60.0
+//! frames = 120
+//! substeps = 10
+//!
+//! [[objects]]
+//! name = "cloth"
+//! mass = 1.0
+//! pins = ["corners:row0"]
+//! [objects.grid]
+//! size = [1.0, 1.0]
+//! resolution = [32, 32]
+//!
+//! [[constraints]]
+//! kind = "stretch"
+//! objects = ["cloth"]
+//! params = { compliance = 0.0 }
+//! ```
+
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+use toml::Spanned;
+
+use crate::schedule::ScheduleMode;
+
+/// A scene error, located in its file.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    /// The file could not be read.
+    #[error("{path}: cannot read scene: {source}")]
+    Io {
+        /// The scene file.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// The file is not a valid scene (syntax, unknown field, wrong type).
+    #[error("{path}:{line}:{col}: {message}")]
+    Parse {
+        /// The scene file.
+        path: PathBuf,
+        /// 1-based line.
+        line: usize,
+        /// 1-based column.
+        col: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// A value is syntactically fine but invalid (a pin out of range, a negative mass...).
+    #[error("{path}:{line}:{col}: {message}")]
+    Invalid {
+        /// The scene file.
+        path: PathBuf,
+        /// 1-based line.
+        line: usize,
+        /// 1-based column.
+        col: usize,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+/// Solver settings.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SolverSettings {
+    /// Frames per second of the output (Hz). Default 60.
+    pub frame_rate: f64,
+    /// Frames to simulate. Default 120.
+    pub frames: u32,
+    /// Substeps per frame (each a full predict/solve/update). Default 10.
+    pub substeps: u32,
+    /// Multiplier on every group's importance (passes per substep). Default 1.
+    pub iterations: u32,
+    /// Interleaved (paper, Fig. 13) or sequential schedule. Default interleaved.
+    pub schedule: ScheduleMode,
+    /// Gravity (m/s²). Default `[0, -9.81, 0]`.
+    pub gravity: [f64; 3],
+    /// Linear velocity damping (1/s): `v *= exp(-damping h)` each substep. Default 0.
+    pub damping: f64,
+    /// Check positions/velocities for NaN/Inf after every plugin call. Default true.
+    pub check_finite: bool,
+}
+
+impl Default for SolverSettings {
+    fn default() -> Self {
+        Self {
+            frame_rate: 60.0,
+            frames: 120,
+            substeps: 10,
+            iterations: 1,
+            schedule: ScheduleMode::Interleaved,
+            gravity: [0.0, -9.81, 0.0],
+            damping: 0.0,
+            check_finite: true,
+        }
+    }
+}
+
+/// The plane a grid lies in: vertex `(i, j)` sits at `origin + j·du·U + i·dv·V`.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum Plane {
+    /// U = x, V = z (horizontal; the default).
+    #[default]
+    Xz,
+    /// U = x, V = y (vertical).
+    Xy,
+    /// U = y, V = z.
+    Yz,
+}
+
+/// A rectangular cloth: `resolution = [nu, nv]` vertices, split into two triangles per quad
+/// along the same diagonal. Rows `i` run along V, columns `j` along U.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GridSpec {
+    /// Side lengths `[along U, along V]` (m).
+    pub size: [f64; 2],
+    /// Vertices per side `[along U, along V]`, each >= 2.
+    pub resolution: Spanned<[u32; 2]>,
+    /// Plane of the grid. Default `xz`.
+    #[serde(default)]
+    pub plane: Plane,
+    /// Position of vertex (0, 0) (m). Default origin.
+    #[serde(default)]
+    pub origin: [f64; 3],
+}
+
+/// A polyline (rope, hair, chain) from `start` to `end` with `segments` edges.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RopeSpec {
+    /// First vertex (m).
+    pub start: [f64; 3],
+    /// Last vertex (m).
+    pub end: [f64; 3],
+    /// Number of edges, >= 1.
+    pub segments: Spanned<u32>,
+    /// Rope length (m); if longer than the distance between the ends, the rope starts as a
+    /// V hanging between them. Default: the distance between the ends.
+    pub length: Option<f64>,
+}
+
+/// Unconnected particles on a regular lattice filling a box.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ParticlesSpec {
+    /// Box corner (m).
+    pub min: [f64; 3],
+    /// Opposite corner (m).
+    pub max: [f64; 3],
+    /// Particles per axis, each >= 1.
+    pub count: Spanned<[u32; 3]>,
+}
+
+/// A box of tetrahedra: `resolution` cells per axis, six tets per cell.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TetBoxSpec {
+    /// Box corner (m).
+    pub min: [f64; 3],
+    /// Opposite corner (m).
+    pub max: [f64; 3],
+    /// Cells per axis, each >= 1.
+    pub resolution: Spanned<[u32; 3]>,
+}
+
+/// A triangle (and polyline) mesh from an OBJ file, relative to the scene file.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeshSpec {
+    /// Path of the OBJ file, relative to the scene file.
+    pub path: Spanned<PathBuf>,
+    /// Uniform scale. Default 1.
+    #[serde(default = "one")]
+    pub scale: f64,
+    /// Translation after scaling (m). Default 0.
+    #[serde(default)]
+    pub translate: [f64; 3],
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+/// Motion of an object's pinned (kinematic) vertices: a rigid motion about `pivot`.
+#[derive(Debug, Clone, Deserialize, Default)]
+#[serde(deny_unknown_fields, default)]
+pub struct PinMotion {
+    /// Linear velocity (m/s).
+    pub velocity: [f64; 3],
+    /// Angular velocity (rad/s), about `pivot`.
+    pub angular_velocity: [f64; 3],
+    /// Centre of rotation (m).
+    pub pivot: [f64; 3],
+}
+
+/// A pin selector: a vertex index, a named selector, or a box in the rest pose.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(untagged)]
+pub enum PinSelector {
+    /// A vertex index (0-based, within the object).
+    Index(i64),
+    /// A named selector: `corners:row0` / `corners:rowN` / `corners:col0` / `corners:colN`
+    /// (the two corners of that edge of a grid), `edge:row0` ... (all vertices of that grid
+    /// edge), `start` / `end` / `ends` (of a rope), `all`.
+    Named(String),
+    /// Every vertex inside the axis-aligned box (rest pose).
+    Box {
+        /// Box corner (m).
+        min: [f64; 3],
+        /// Opposite corner (m).
+        max: [f64; 3],
+    },
+}
+
+/// An object of the scene.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObjectSpec {
+    /// Unique name, used by constraint groups and in the output.
+    pub name: Spanned<String>,
+    /// Total mass (kg), spread evenly over the vertices. Default 1 kg if no mass is given.
+    pub mass: Option<Spanned<f64>>,
+    /// Density, lumped to the vertices by the measure of the highest simplices
+    /// (kg/m for curves, kg/m² for surfaces, kg/m³ for solids).
+    pub density: Option<Spanned<f64>>,
+    /// Mass of every vertex (kg).
+    pub vertex_mass: Option<Spanned<f64>>,
+    /// Initial velocity (m/s).
+    #[serde(default)]
+    pub velocity: [f64; 3],
+    /// Vertices that are kinematic (pinned; inverse mass 0).
+    pub pins: Option<Spanned<Vec<PinSelector>>>,
+    /// How pinned vertices move. Default: they stay put.
+    #[serde(default)]
+    pub pin_motion: PinMotion,
+    /// A grid cloth.
+    pub grid: Option<GridSpec>,
+    /// A rope.
+    pub rope: Option<RopeSpec>,
+    /// A particle block.
+    pub particles: Option<ParticlesSpec>,
+    /// A tetrahedral box.
+    pub tet_box: Option<TetBoxSpec>,
+    /// An OBJ mesh.
+    pub mesh: Option<MeshSpec>,
+}
+
+/// A constraint group: one kind over some objects.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ConstraintSpec {
+    /// The kind (as listed by `nucleus plugins`).
+    pub kind: Spanned<String>,
+    /// Group name in stats and errors. Default `<kind>` (or `<kind>#<n>` if repeated).
+    pub name: Option<String>,
+    /// Objects the group applies to. Default: every object.
+    pub objects: Option<Vec<Spanned<String>>>,
+    /// Order override.
+    pub order: Option<i32>,
+    /// Importance override.
+    pub importance: Option<u32>,
+    /// The kind's parameters.
+    pub params: Option<Spanned<toml::Table>>,
+}
+
+/// Output settings.
+#[derive(Debug, Clone, Deserialize, Default)]
+#[serde(deny_unknown_fields, default)]
+pub struct OutputSpec {
+    /// Write an OBJ every `obj_every` frames (0: never). Default 1.
+    pub obj_every: Option<u32>,
+}
+
+/// A whole scene file.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneFile {
+    /// Solver settings.
+    #[serde(default)]
+    pub solver: SolverSettings,
+    /// Objects.
+    #[serde(default)]
+    pub objects: Vec<ObjectSpec>,
+    /// Constraint groups.
+    #[serde(default)]
+    pub constraints: Vec<ConstraintSpec>,
+    /// Output settings.
+    #[serde(default)]
+    pub output: OutputSpec,
+}
+
+/// The simplices and rest positions of one built object (local vertex indices).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Geometry {
+    /// Rest positions (m).
+    pub positions: Vec<[f64; 3]>,
+    /// Isolated points.
+    pub points: Vec<u32>,
+    /// Curve edges.
+    pub edges: Vec<[u32; 2]>,
+    /// Triangles.
+    pub triangles: Vec<[u32; 3]>,
+    /// Tetrahedra.
+    pub tets: Vec<[u32; 4]>,
+    /// Grid resolution, for grid selectors.
+    pub grid: Option<[u32; 2]>,
+}
+
+/// A scene read from a file, with its source kept for error locations.
+#[derive(Debug, Clone)]
+pub struct Scene {
+    /// The parsed file.
+    pub file: SceneFile,
+    /// Where it came from.
+    pub path: PathBuf,
+    source: String,
+}
+
+/// 1-based line and column of a byte offset.
+pub fn line_col(source: &str, offset: usize) -> (usize, usize) {
+    let offset = offset.min(source.len());
+    let before = &source[..offset];
+    let line = before.matches('\n').count() + 1;
+    let col = before.rfind('\n').map_or(offset, |p| offset - p - 1) + 1;
+    (line, col)
+}
+
+impl Scene {
+    /// Reads and parses a scene file.
+    pub fn load(path: &Path) -> Result<Scene, SceneError> {
+        let source = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Self::parse(&source, path)
+    }
+
+    /// Parses scene text; `path` is used for error messages and relative mesh paths.
+    pub fn parse(source: &str, path: &Path) -> Result<Scene, SceneError> {
+        let file: SceneFile = toml::from_str(source).map_err(|e| {
+            let (line, col) = e.span().map_or((1, 1), |s| line_col(source, s.start));
+            SceneError::Parse {
+                path: path.to_path_buf(),
+                line,
+                col,
+                message: e.message().trim().to_string(),
+            }
+        })?;
+        let scene = Scene {
+            file,
+            path: path.to_path_buf(),
+            source: source.to_string(),
+        };
+        scene.validate()?;
+        Ok(scene)
+    }
+
+    /// The scene text.
+    pub fn source(&self) -> &str {
+        &self.source
+    }
+
+    /// An error at a span of the source.
+    pub fn invalid(&self, span: Range<usize>, message: impl Into<String>) -> SceneError {
+        let (line, col) = line_col(&self.source, span.start);
+        SceneError::Invalid {
+            path: self.path.clone(),
+            line,
+            col,
+            message: message.into(),
+        }
+    }
+
+    /// An error located at the start of the first line matching `needle` (for values that
+    /// carry no span), or at 1:1.
+    pub fn invalid_near(&self, needle: &str, message: impl Into<String>) -> SceneError {
+        let offset = self.source.find(needle).unwrap_or(0);
+        self.invalid(offset..offset, message)
+    }
+
+    fn validate(&self) -> Result<(), SceneError> {
+        let s = &self.file.solver;
+        let positive = |x: f64| x.is_finite() && x > 0.0;
+        if !positive(s.frame_rate) {
+            return Err(self.invalid_near("frame_rate", "frame_rate must be a positive number"));
+        }
+        if s.substeps == 0 {
+            return Err(self.invalid_near("substeps", "substeps must be at least 1"));
+        }
+        if s.iterations == 0 {
+            return Err(self.invalid_near("iterations", "iterations must be at least 1"));
+        }
+        if !s.gravity.iter().all(|g| g.is_finite()) {
+            return Err(self.invalid_near("gravity", "gravity must be finite"));
+        }
+        if !(s.damping.is_finite() && s.damping >= 0.0) {
+            return Err(self.invalid_near("damping", "damping must be finite and >= 0"));
+        }
+        let mut names: Vec<&str> = Vec::new();
+        for o in &self.file.objects {
+            let name = o.name.get_ref();
+            if name.is_empty() {
+                return Err(self.invalid(o.name.span(), "object name must not be empty"));
+            }
+            if names.contains(&name.as_str()) {
+                return Err(self.invalid(o.name.span(), format!("duplicate object `{name}`")));
+            }
+            names.push(name);
+            let given = [o.mass.as_ref(), o.density.as_ref(), o.vertex_mass.as_ref()];
+            let mut count = 0;
+            for m in given.into_iter().flatten() {
+                count += 1;
+                if !(m.get_ref().is_finite() && *m.get_ref() > 0.0) {
+                    return Err(self.invalid(
+                        m.span(),
+                        format!(
+                            "object `{name}`: mass must be a positive finite number, found {}",
+                            m.get_ref()
+                        ),
+                    ));
+                }
+            }
+            if count > 1 {
+                return Err(self.invalid(
+                    o.name.span(),
+                    format!("object `{name}`: give only one of mass, density, vertex_mass"),
+                ));
+            }
+            if !o.velocity.iter().all(|v| v.is_finite()) {
+                return Err(self.invalid(
+                    o.name.span(),
+                    format!("object `{name}`: velocity must be finite"),
+                ));
+            }
+        }
+        for c in &self.file.constraints {
+            if let Some(objs) = &c.objects {
+                for obj in objs {
+                    if !names.contains(&obj.get_ref().as_str()) {
+                        return Err(self.invalid(
+                            obj.span(),
+                            format!(
+                                "constraint `{}`: no object named `{}`",
+                                c.kind.get_ref(),
+                                obj.get_ref()
+                            ),
+                        ));
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Builds the geometry of an object (reads mesh files).
+    pub fn geometry(&self, o: &ObjectSpec) -> Result<Geometry, SceneError> {
+        let name = o.name.get_ref();
+        let shapes = [
+            o.grid.is_some(),
+            o.rope.is_some(),
+            o.particles.is_some(),
+            o.tet_box.is_some(),
+            o.mesh.is_some(),
+        ];
+        let n_shapes = shapes.iter().filter(|&&b| b).count();
+        if n_shapes != 1 {
+            return Err(self.invalid(
+                o.name.span(),
+                format!(
+                    "object `{name}` needs exactly one shape table (grid, rope, particles, tet_box, mesh), found {n_shapes}"
+                ),
+            ));
+        }
+        let finite3 = |v: &[f64; 3]| v.iter().all(|x| x.is_finite());
+        if let Some(g) = &o.grid {
+            let [nu, nv] = *g.resolution.get_ref();
+            if nu < 2 || nv < 2 || (nu as u64) * (nv as u64) > 50_000_000 {
+                return Err(self.invalid(
+                    g.resolution.span(),
+                    format!("object `{name}`: grid resolution must be at least 2 per side (and sane), found [{nu}, {nv}]"),
+                ));
+            }
+            if !(g.size.iter().all(|s| s.is_finite() && *s > 0.0) && finite3(&g.origin)) {
+                return Err(self.invalid(
+                    o.name.span(),
+                    format!("object `{name}`: grid size must be positive and origin finite"),
+                ));
+            }
+            return Ok(crate::shapes::grid(g.size, [nu, nv], g.plane, g.origin));
+        }
+        if let Some(r) = &o.rope {
+            let n = *r.segments.get_ref();
+            if n == 0 || n > 50_000_000 {
+                return Err(self.invalid(
+                    r.segments.span(),
+                    format!("object `{name}`: a rope needs at least 1 segment"),
+                ));
+            }
+            if !(finite3(&r.start) && finite3(&r.end)) {
+                return Err(self.invalid(
+                    o.name.span(),
+                    format!("object `{name}`: rope ends must be finite"),
+                ));
+            }
+            if r.length.is_some_and(|l| !(l.is_finite() && l > 0.0)) {
+                return Err(self.invalid(
+                    r.segments.span(),
+                    format!("object `{name}`: rope length must be positive"),
+                ));
+            }
+            return Ok(crate::shapes::rope(r.start, r.end, n, r.length));
+        }
+        if let Some(p) = &o.particles {
+            let c = *p.count.get_ref();
+            if c.contains(&0) || c.iter().map(|&x| x as u64).product::<u64>() > 50_000_000 {
+                return Err(self.invalid(
+                    p.count.span(),
+                    format!("object `{name}`: particle count must be at least 1 per axis"),
+                ));
+            }
+            if !(finite3(&p.min) && finite3(&p.max)) {
+                return Err(self.invalid(
+                    o.name.span(),
+                    format!("object `{name}`: particle box must be finite"),
+                ));
+            }
+            return Ok(crate::shapes::particle_block(p.min, p.max, c));
+        }
+        if let Some(t) = &o.tet_box {
+            let r = *t.resolution.get_ref();
+            if r.contains(&0) || r.iter().map(|&x| x as u64).product::<u64>() > 10_000_000 {
+                return Err(self.invalid(
+                    t.resolution.span(),
+                    format!("object `{name}`: tet_box resolution must be at least 1 per axis"),
+                ));
+            }
+            let ok =
+                (0..3).all(|k| t.min[k].is_finite() && t.max[k].is_finite() && t.max[k] > t.min[k]);
+            if !ok {
+                return Err(self.invalid(
+                    o.name.span(),
+                    format!("object `{name}`: tet_box needs finite min < max"),
+                ));
+            }
+            return Ok(crate::shapes::tet_box(t.min, t.max, r));
+        }
+        let m = o.mesh.as_ref().expect("exactly one shape is set");
+        let rel = m.path.get_ref();
+        let full = self
+            .path
+            .parent()
+            .map_or_else(|| rel.clone(), |d| d.join(rel));
+        if !(m.scale.is_finite() && m.scale > 0.0 && finite3(&m.translate)) {
+            return Err(self.invalid(
+                m.path.span(),
+                format!("object `{name}`: mesh scale must be positive and translate finite"),
+            ));
+        }
+        crate::shapes::load_obj(&full, m.scale, m.translate).map_err(|e| {
+            self.invalid(
+                m.path.span(),
+                format!("object `{name}`: mesh {}: {e}", full.display()),
+            )
+        })
+    }
+
+    /// Resolves the pins of an object to local vertex indices (sorted, unique).
+    pub fn pins(&self, o: &ObjectSpec, geo: &Geometry) -> Result<Vec<u32>, SceneError> {
+        let n = geo.positions.len();
+        let name = o.name.get_ref();
+        let mut out = Vec::new();
+        let Some(pins) = &o.pins else {
+            return Ok(out);
+        };
+        for sel in pins.get_ref() {
+            match sel {
+                PinSelector::Index(i) => {
+                    if *i < 0 || *i as usize >= n {
+                        return Err(self.invalid(
+                            pins.span(),
+                            format!("object `{name}`: pin index {i} is out of range (the object has {n} vertices)"),
+                        ));
+                    }
+                    out.push(*i as u32);
+                }
+                PinSelector::Named(s) => {
+                    let found = crate::shapes::select(s, geo).ok_or_else(|| {
+                        self.invalid(
+                            pins.span(),
+                            format!("object `{name}`: unknown pin selector `{s}` for this shape (grids: corners:row0|rowN|col0|colN, edge:...; ropes: start, end, ends; any: all)"),
+                        )
+                    })?;
+                    out.extend(found);
+                }
+                PinSelector::Box { min, max } => {
+                    out.extend(geo.positions.iter().enumerate().filter_map(|(i, p)| {
+                        (0..3)
+                            .all(|k| p[k] >= min[k] && p[k] <= max[k])
+                            .then_some(i as u32)
+                    }));
+                }
+            }
+        }
+        out.sort_unstable();
+        out.dedup();
+        Ok(out)
+    }
+}

@@ -1,0 +1,822 @@
+//! The simulation: particle state, the groups built by plugins, and the step.
+//!
+//! Per substep of length `h` the step runs these stages, in this order:
+//!
+//! 1. `kinematic` — pinned/animated particles get their target at `t + h`;
+//! 2. `forces` — `v += h g` for dynamic particles, then every group's `force` stage;
+//! 3. `predict` — `x0 = x; x = x0 + h v` (kinematic particles: `x = target`);
+//! 4. `begin` — every group's `begin_substep`;
+//! 5. `solve` — the schedule: each group's `project`, `importance × iterations` times,
+//!    interleaved by order (paper, Figures 9–13);
+//! 6. `velocities` — `v = (x − x0) / h`;
+//! 7. `end` — every group's `end_substep` (restitution, friction), then global damping.
+//!
+//! This is the paper's implicit-velocity / explicit-position scheme (symplectic Euler).
+//! Only the stages a group implements are called; empty groups are never scheduled. The
+//! step loop allocates nothing.
+
+use std::path::PathBuf;
+
+use abi_stable::std_types::{RResult, RSlice, RSliceMut, RStr};
+use glam::{DQuat, DVec3};
+use nucleus_sdk::{
+    Attribute, EdgePair, GroupBox, ObjectView, PluginError, Residual, SceneView, SolveContext,
+    Stages, TrianglePair, FLAG_KINEMATIC,
+};
+
+use crate::complex::Complex;
+use crate::plugins::{PluginLoadError, Registry};
+use crate::scene::{PinMotion, Scene, SceneError, SolverSettings};
+use crate::schedule::{schedule, Call, Slot};
+
+/// An error while building a simulation from a scene.
+#[derive(Debug, thiserror::Error)]
+pub enum BuildError {
+    /// The scene is invalid.
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+    /// A plugin could not be found or failed to build its group.
+    #[error("{location}: {error}")]
+    Plugin {
+        /// `file:line:col` of the constraint in the scene.
+        location: String,
+        /// The cause.
+        error: PluginLoadError,
+    },
+}
+
+/// A stage of the step, for error messages.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stage {
+    /// Force stage.
+    Force,
+    /// Begin-substep stage.
+    BeginSubstep,
+    /// Projection.
+    Project,
+    /// End-substep stage.
+    EndSubstep,
+    /// Residual / report.
+    Report,
+}
+
+impl std::fmt::Display for Stage {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Stage::Force => "force",
+            Stage::BeginSubstep => "begin_substep",
+            Stage::Project => "project",
+            Stage::EndSubstep => "end_substep",
+            Stage::Report => "report",
+        })
+    }
+}
+
+/// An error during a step. The state is left as it was when the error happened.
+#[derive(Debug, thiserror::Error)]
+pub enum StepError {
+    /// A plugin returned an error (or panicked, which the SDK turns into an error).
+    #[error("plugin `{plugin}` ({}), group `{group}`, {stage} at frame {frame} substep {substep}: {error}", path.display())]
+    Plugin {
+        /// Plugin name.
+        plugin: String,
+        /// Library path.
+        path: PathBuf,
+        /// Group name.
+        group: String,
+        /// Stage.
+        stage: Stage,
+        /// Frame.
+        frame: u64,
+        /// Substep.
+        substep: u32,
+        /// The plugin's error.
+        error: PluginError,
+    },
+    /// A group's call left a NaN or infinity in the state.
+    #[error("plugin `{plugin}` ({}), group `{group}`, {stage} at frame {frame} substep {substep}: wrote a non-finite {what} (NaN or infinity); stopping", path.display())]
+    NonFinite {
+        /// Plugin name.
+        plugin: String,
+        /// Library path.
+        path: PathBuf,
+        /// Group name.
+        group: String,
+        /// Stage.
+        stage: Stage,
+        /// Frame.
+        frame: u64,
+        /// Substep.
+        substep: u32,
+        /// "position" or "velocity".
+        what: &'static str,
+    },
+}
+
+/// An object's topology in global particle indices, as plugins see it.
+#[derive(Debug, Clone, Default)]
+pub struct ObjectData {
+    /// Name.
+    pub name: String,
+    /// First particle.
+    pub first: u32,
+    /// Number of particles.
+    pub count: u32,
+    /// Isolated points.
+    pub points: Vec<u32>,
+    /// All edges.
+    pub edges: Vec<[u32; 2]>,
+    /// Triangles per edge.
+    pub edge_triangle_count: Vec<u32>,
+    /// All triangles, oriented.
+    pub triangles: Vec<[u32; 3]>,
+    /// Triangles on the surface (not shared by two tets), for output and collisions.
+    pub surface_triangles: Vec<[u32; 3]>,
+    /// Curve edges (in no triangle), for output.
+    pub curve_edges: Vec<[u32; 2]>,
+    /// Tets.
+    pub tets: Vec<[u32; 4]>,
+    /// Triangle pairs.
+    pub triangle_pairs: Vec<TrianglePair>,
+    /// Curve edge pairs.
+    pub edge_pairs: Vec<EdgePair>,
+    /// Boundary edges.
+    pub boundary_edges: Vec<[u32; 2]>,
+    /// Closed surface.
+    pub closed: bool,
+    /// Manifold.
+    pub manifold: bool,
+    /// Motion of the pinned vertices.
+    pub pin_motion: PinMotion,
+}
+
+impl ObjectData {
+    fn from_complex(name: &str, first: u32, complex: &Complex) -> ObjectData {
+        let g = |i: u32| i + first;
+        let edges: Vec<[u32; 2]> = complex.edges().iter().map(|e| [g(e[0]), g(e[1])]).collect();
+        let edge_triangle_count = complex.edge_triangle_count();
+        let triangles: Vec<[u32; 3]> = complex
+            .triangles_oriented()
+            .iter()
+            .map(|t| [g(t[0]), g(t[1]), g(t[2])])
+            .collect();
+        let surface_triangles = triangles
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| complex.valence(2, *i) < 2)
+            .map(|(_, t)| *t)
+            .collect();
+        let curve_edges = edges
+            .iter()
+            .zip(&edge_triangle_count)
+            .filter(|(_, &c)| c == 0)
+            .map(|(e, _)| *e)
+            .collect();
+        ObjectData {
+            name: name.to_string(),
+            first,
+            count: complex.n_vertices() as u32,
+            points: complex.isolated_points().iter().map(|&p| g(p)).collect(),
+            edges,
+            edge_triangle_count,
+            triangles,
+            surface_triangles,
+            curve_edges,
+            tets: complex
+                .tets()
+                .iter()
+                .map(|t| [g(t[0]), g(t[1]), g(t[2]), g(t[3])])
+                .collect(),
+            triangle_pairs: complex
+                .triangle_pairs()
+                .iter()
+                .map(|p| TrianglePair {
+                    triangles: p.triangles,
+                    edge: [g(p.edge[0]), g(p.edge[1])],
+                    opposite: [g(p.opposite[0]), g(p.opposite[1])],
+                })
+                .collect(),
+            edge_pairs: complex
+                .edge_pairs()
+                .iter()
+                .map(|p| EdgePair {
+                    vertices: [g(p[0]), g(p[1]), g(p[2])],
+                })
+                .collect(),
+            boundary_edges: complex
+                .boundary_edges()
+                .iter()
+                .map(|e| [g(e[0]), g(e[1])])
+                .collect(),
+            closed: complex.is_closed(),
+            manifold: complex.is_manifold(),
+            pin_motion: PinMotion::default(),
+        }
+    }
+
+    fn view(&self) -> ObjectView<'_> {
+        ObjectView {
+            name: RStr::from(self.name.as_str()),
+            first: self.first,
+            count: self.count,
+            points: RSlice::from_slice(&self.points),
+            edges: RSlice::from_slice(&self.edges),
+            edge_triangle_count: RSlice::from_slice(&self.edge_triangle_count),
+            triangles: RSlice::from_slice(&self.triangles),
+            tets: RSlice::from_slice(&self.tets),
+            triangle_pairs: RSlice::from_slice(&self.triangle_pairs),
+            edge_pairs: RSlice::from_slice(&self.edge_pairs),
+            boundary_edges: RSlice::from_slice(&self.boundary_edges),
+            closed: self.closed as u8,
+            manifold: self.manifold as u8,
+        }
+    }
+}
+
+/// Particle state in struct-of-arrays form.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Particles {
+    /// Positions (m).
+    pub x: Vec<[f64; 3]>,
+    /// Positions at the start of the substep (m).
+    pub x0: Vec<[f64; 3]>,
+    /// Velocities (m/s).
+    pub v: Vec<[f64; 3]>,
+    /// Inverse masses (1/kg); 0 for kinematic particles.
+    pub inv_mass: Vec<f64>,
+    /// Masses (kg), including those of kinematic particles (for reporting).
+    pub mass: Vec<f64>,
+    /// Object index.
+    pub object: Vec<u32>,
+    /// Flags (`FLAG_*`).
+    pub flags: Vec<u32>,
+    /// Rest positions (m).
+    pub rest: Vec<[f64; 3]>,
+}
+
+impl Particles {
+    /// Number of particles.
+    pub fn len(&self) -> usize {
+        self.x.len()
+    }
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.x.is_empty()
+    }
+}
+
+/// A constraint group as the core holds it.
+pub struct Group {
+    /// Group name.
+    pub name: String,
+    /// Kind.
+    pub kind: String,
+    /// Plugin name.
+    pub plugin: String,
+    /// Plugin library.
+    pub path: PathBuf,
+    /// The group object.
+    pub group: GroupBox,
+    /// Stages it implements.
+    pub stages: Stages,
+    /// Order.
+    pub order: i32,
+    /// Importance (before the `iterations` multiplier).
+    pub importance: u32,
+    /// Number of constraints.
+    pub len: u64,
+    /// Residual unit.
+    pub residual_unit: String,
+}
+
+/// The whole simulation.
+pub struct Simulation {
+    /// Solver settings.
+    pub settings: SolverSettings,
+    /// Objects.
+    pub objects: Vec<ObjectData>,
+    /// Particle state.
+    pub particles: Particles,
+    /// Groups, in scene order.
+    pub groups: Vec<Group>,
+    /// The call sequence of one substep.
+    pub calls: Vec<Call>,
+    /// Groups with a force stage, begin stage, end stage.
+    force_groups: Vec<usize>,
+    begin_groups: Vec<usize>,
+    end_groups: Vec<usize>,
+    /// Kinematic particles whose object has a pin motion.
+    moving_pins: Vec<u32>,
+    /// Simulated time (s).
+    pub time: f64,
+    /// Frames done.
+    pub frame: u64,
+}
+
+/// Whether every component is finite (vectorisable: `x·0` is 0 for finite `x`, NaN otherwise).
+pub fn all_finite(xs: &[[f64; 3]]) -> bool {
+    let s: f64 = xs
+        .iter()
+        .map(|p| p[0] * 0.0 + p[1] * 0.0 + p[2] * 0.0)
+        .sum();
+    s == 0.0
+}
+
+fn toml_to_json(v: &toml::Value) -> serde_json::Value {
+    match v {
+        toml::Value::String(s) => serde_json::Value::from(s.as_str()),
+        toml::Value::Integer(i) => serde_json::Value::from(*i),
+        toml::Value::Float(f) => serde_json::Number::from_f64(*f)
+            .map_or(serde_json::Value::Null, serde_json::Value::Number),
+        toml::Value::Boolean(b) => serde_json::Value::from(*b),
+        toml::Value::Datetime(d) => serde_json::Value::from(d.to_string()),
+        toml::Value::Array(a) => serde_json::Value::Array(a.iter().map(toml_to_json).collect()),
+        toml::Value::Table(t) => serde_json::Value::Object(
+            t.iter()
+                .map(|(k, v)| (k.clone(), toml_to_json(v)))
+                .collect(),
+        ),
+    }
+}
+
+impl Simulation {
+    /// Builds the simulation: geometry, particles, and one group per constraint entry through
+    /// the plugin providing its kind.
+    pub fn build(scene: &Scene, registry: &Registry) -> Result<Simulation, BuildError> {
+        let settings = scene.file.solver.clone();
+        let mut objects = Vec::new();
+        let mut p = Particles::default();
+        for (oi, spec) in scene.file.objects.iter().enumerate() {
+            let geo = scene.geometry(spec)?;
+            let name = spec.name.get_ref();
+            let complex = Complex::build(
+                geo.positions.len(),
+                &geo.points,
+                &geo.edges,
+                &geo.triangles,
+                &geo.tets,
+            )
+            .map_err(|e| scene.invalid(spec.name.span(), format!("object `{name}`: {e}")))?;
+            let pins = scene.pins(spec, &geo)?;
+            let masses = crate::shapes::vertex_masses(
+                &geo,
+                spec.mass.as_ref().map(|m| *m.get_ref()),
+                spec.density.as_ref().map(|m| *m.get_ref()),
+                spec.vertex_mass.as_ref().map(|m| *m.get_ref()),
+            );
+            let first = p.x.len() as u32;
+            let mut data = ObjectData::from_complex(name, first, &complex);
+            data.pin_motion = spec.pin_motion.clone();
+            objects.push(data);
+            for (i, (pos, m)) in geo.positions.iter().zip(&masses).enumerate() {
+                let pinned = pins.binary_search(&(i as u32)).is_ok();
+                p.x.push(*pos);
+                p.x0.push(*pos);
+                p.rest.push(*pos);
+                p.v.push(if pinned { [0.0; 3] } else { spec.velocity });
+                p.mass.push(*m);
+                p.inv_mass.push(if pinned { 0.0 } else { 1.0 / m });
+                p.object.push(oi as u32);
+                p.flags.push(if pinned { FLAG_KINEMATIC } else { 0 });
+            }
+        }
+        let is_moving = |m: &PinMotion| m.velocity != [0.0; 3] || m.angular_velocity != [0.0; 3];
+        let moving_pins = (0..p.len() as u32)
+            .filter(|&i| {
+                p.flags[i as usize] & FLAG_KINEMATIC != 0
+                    && is_moving(&objects[p.object[i as usize] as usize].pin_motion)
+            })
+            .collect();
+
+        let views: Vec<ObjectView<'_>> = objects.iter().map(ObjectData::view).collect();
+        let mut groups = Vec::new();
+        let mut kind_counts: std::collections::BTreeMap<String, u32> = Default::default();
+        for c in &scene.file.constraints {
+            let kind = c.kind.get_ref();
+            let location = {
+                let (line, col) = crate::scene::line_col(scene_source(scene), c.kind.span().start);
+                format!("{}:{line}:{col}", scene.path.display())
+            };
+            let (plugin, info) = registry.find(kind).map_err(|error| BuildError::Plugin {
+                location: location.clone(),
+                error,
+            })?;
+            let n = kind_counts.entry(kind.clone()).or_insert(0);
+            *n += 1;
+            let name = c.name.clone().unwrap_or_else(|| {
+                if *n == 1 {
+                    kind.clone()
+                } else {
+                    format!("{kind}#{n}")
+                }
+            });
+            let targets: Vec<u32> = match &c.objects {
+                Some(list) => list
+                    .iter()
+                    .filter_map(|o| objects.iter().position(|d| &d.name == o.get_ref()))
+                    .map(|i| i as u32)
+                    .collect(),
+                None => (0..objects.len() as u32).collect(),
+            };
+            let params = toml_to_json(&toml::Value::Table(
+                c.params
+                    .as_ref()
+                    .map(|p| p.get_ref().clone())
+                    .unwrap_or_default(),
+            ));
+            let params_span = c.params.as_ref().map_or(c.kind.span(), |p| p.span());
+            let validated = nucleus_sdk::params::validate(&params, info.params.as_slice())
+                .map_err(|e| {
+                    scene.invalid(
+                        params_span.clone(),
+                        format!("constraint `{name}` (kind `{kind}`): {e}"),
+                    )
+                })?;
+            let json = serde_json::Value::Object(validated).to_string();
+            let view = SceneView {
+                objects: RSlice::from_slice(&views),
+                targets: RSlice::from_slice(&targets),
+                rest: RSlice::from_slice(&p.rest),
+                inv_mass: RSlice::from_slice(&p.inv_mass),
+                attributes: RSlice::from_slice(&[] as &[Attribute<'_>]),
+                gravity: settings.gravity,
+                frame_dt: 1.0 / settings.frame_rate,
+                substeps: settings.substeps,
+            };
+            let group = plugin.create_group(kind, &json, &view).map_err(|error| {
+                let plugin_error = PluginLoadError::Factory {
+                    plugin: plugin.info.name.to_string(),
+                    path: plugin.path.clone(),
+                    group: name.clone(),
+                    error,
+                };
+                BuildError::Plugin {
+                    location: location.clone(),
+                    error: plugin_error,
+                }
+            })?;
+            let stages = group.stages();
+            let len = group.len();
+            groups.push(Group {
+                name,
+                kind: kind.clone(),
+                plugin: plugin.info.name.to_string(),
+                path: plugin.path.clone(),
+                group,
+                stages,
+                order: c.order.unwrap_or(info.default_order),
+                importance: c.importance.unwrap_or(info.default_importance),
+                len,
+                residual_unit: info.residual_unit.to_string(),
+            });
+        }
+        drop(views);
+        let mut sim = Simulation {
+            settings,
+            objects,
+            particles: p,
+            groups,
+            calls: Vec::new(),
+            force_groups: Vec::new(),
+            begin_groups: Vec::new(),
+            end_groups: Vec::new(),
+            moving_pins,
+            time: 0.0,
+            frame: 0,
+        };
+        sim.reschedule();
+        Ok(sim)
+    }
+
+    /// Recomputes the call sequence and stage lists (after changing settings or importances).
+    pub fn reschedule(&mut self) {
+        let active = |g: &Group, s: Stages| g.len > 0 && g.stages.contains(s);
+        let slots: Vec<Slot> = self
+            .groups
+            .iter()
+            .map(|g| Slot {
+                order: g.order,
+                importance: if active(g, Stages::PROJECT) {
+                    g.importance.saturating_mul(self.settings.iterations)
+                } else {
+                    0
+                },
+            })
+            .collect();
+        self.calls = schedule(&slots, self.settings.schedule);
+        let pick = |s: Stages| -> Vec<usize> {
+            (0..self.groups.len())
+                .filter(|&i| active(&self.groups[i], s))
+                .collect()
+        };
+        self.force_groups = pick(Stages::FORCE);
+        self.begin_groups = pick(Stages::BEGIN_SUBSTEP);
+        self.end_groups = pick(Stages::END_SUBSTEP);
+    }
+
+    /// Substep length (s).
+    pub fn h(&self) -> f64 {
+        1.0 / (self.settings.frame_rate * self.settings.substeps as f64)
+    }
+
+    /// Runs one frame (all its substeps).
+    pub fn step_frame(&mut self) -> Result<(), StepError> {
+        for s in 0..self.settings.substeps {
+            self.substep(s)?;
+        }
+        self.frame += 1;
+        Ok(())
+    }
+
+    /// Runs one substep (stages listed in the module docs).
+    pub fn substep(&mut self, substep: u32) -> Result<(), StepError> {
+        let h = self.h();
+        let t1 = self.time + h;
+        self.move_kinematic(t1);
+        self.apply_gravity(h);
+        for k in 0..self.force_groups.len() {
+            self.call_group(self.force_groups[k], Stage::Force, substep, 0, 1)?;
+        }
+        self.predict(h);
+        for k in 0..self.begin_groups.len() {
+            self.call_group(self.begin_groups[k], Stage::BeginSubstep, substep, 0, 1)?;
+        }
+        for k in 0..self.calls.len() {
+            let call = self.calls[k];
+            let g = call.group as usize;
+            let passes = self.groups[g]
+                .importance
+                .saturating_mul(self.settings.iterations);
+            self.call_group(g, Stage::Project, substep, call.pass, passes)?;
+        }
+        self.update_velocities(h);
+        for k in 0..self.end_groups.len() {
+            self.call_group(self.end_groups[k], Stage::EndSubstep, substep, 0, 1)?;
+        }
+        self.damp(h);
+        self.time = t1;
+        Ok(())
+    }
+
+    fn move_kinematic(&mut self, t: f64) {
+        for &i in &self.moving_pins {
+            let i = i as usize;
+            let m = &self.objects[self.particles.object[i] as usize].pin_motion;
+            let pivot = DVec3::from_array(m.pivot);
+            let rot = DQuat::from_scaled_axis(DVec3::from_array(m.angular_velocity) * t);
+            let rest = DVec3::from_array(self.particles.rest[i]);
+            let target = pivot + rot * (rest - pivot) + DVec3::from_array(m.velocity) * t;
+            // Kinematic particles use x0 as scratch for their target until `predict`.
+            self.particles.x0[i] = target.to_array();
+        }
+    }
+
+    fn apply_gravity(&mut self, h: f64) {
+        let g = DVec3::from_array(self.settings.gravity) * h;
+        let p = &mut self.particles;
+        for (v, &w) in p.v.iter_mut().zip(&p.inv_mass) {
+            if w > 0.0 {
+                *v = (DVec3::from_array(*v) + g).to_array();
+            }
+        }
+    }
+
+    fn predict(&mut self, h: f64) {
+        let p = &mut self.particles;
+        let moving = &self.moving_pins;
+        let mut next_moving = 0;
+        for i in 0..p.x.len() {
+            if next_moving < moving.len() && moving[next_moving] as usize == i {
+                // Target was stored in x0 by `move_kinematic`.
+                let target = p.x0[i];
+                p.x0[i] = p.x[i];
+                p.v[i] = ((DVec3::from_array(target) - DVec3::from_array(p.x[i])) / h).to_array();
+                p.x[i] = target;
+                next_moving += 1;
+                continue;
+            }
+            p.x0[i] = p.x[i];
+            if p.inv_mass[i] > 0.0 {
+                p.x[i] = (DVec3::from_array(p.x[i]) + DVec3::from_array(p.v[i]) * h).to_array();
+            }
+        }
+    }
+
+    fn update_velocities(&mut self, h: f64) {
+        let p = &mut self.particles;
+        let inv_h = 1.0 / h;
+        for ((v, x), x0) in p.v.iter_mut().zip(&p.x).zip(&p.x0) {
+            *v = ((DVec3::from_array(*x) - DVec3::from_array(*x0)) * inv_h).to_array();
+        }
+    }
+
+    fn damp(&mut self, h: f64) {
+        if self.settings.damping <= 0.0 {
+            return;
+        }
+        let k = (-self.settings.damping * h).exp();
+        for v in &mut self.particles.v {
+            *v = (DVec3::from_array(*v) * k).to_array();
+        }
+    }
+
+    fn call_group(
+        &mut self,
+        g: usize,
+        stage: Stage,
+        substep: u32,
+        pass: u32,
+        passes: u32,
+    ) -> Result<(), StepError> {
+        let p = &mut self.particles;
+        let mut ctx = SolveContext {
+            x: RSliceMut::from_mut_slice(&mut p.x),
+            v: RSliceMut::from_mut_slice(&mut p.v),
+            x0: RSlice::from_slice(&p.x0),
+            inv_mass: RSlice::from_slice(&p.inv_mass),
+            object: RSlice::from_slice(&p.object),
+            flags: RSlice::from_slice(&p.flags),
+            attributes: RSlice::from_slice(&[]),
+            h: 1.0 / (self.settings.frame_rate * self.settings.substeps as f64),
+            time: self.time,
+            gravity: self.settings.gravity,
+            frame: self.frame,
+            substep,
+            substeps: self.settings.substeps,
+            pass,
+            passes,
+        };
+        let group = &mut self.groups[g];
+        let result = match stage {
+            Stage::Force => group.group.force(&mut ctx),
+            Stage::BeginSubstep => group.group.begin_substep(&mut ctx),
+            Stage::Project => group.group.project(&mut ctx),
+            Stage::EndSubstep => group.group.end_substep(&mut ctx),
+            Stage::Report => RResult::ROk(()),
+        };
+        drop(ctx);
+        if let RResult::RErr(error) = result {
+            return Err(StepError::Plugin {
+                plugin: group.plugin.clone(),
+                path: group.path.clone(),
+                group: group.name.clone(),
+                stage,
+                frame: self.frame,
+                substep,
+                error,
+            });
+        }
+        if self.settings.check_finite {
+            let what = if !all_finite(&p.x) {
+                Some("position")
+            } else if !all_finite(&p.v) {
+                Some("velocity")
+            } else {
+                None
+            };
+            if let Some(what) = what {
+                return Err(StepError::NonFinite {
+                    plugin: group.plugin.clone(),
+                    path: group.path.clone(),
+                    group: group.name.clone(),
+                    stage,
+                    frame: self.frame,
+                    substep,
+                    what,
+                });
+            }
+        }
+        Ok(())
+    }
+
+    fn read_context(&mut self) -> SolveContext<'_> {
+        let p = &mut self.particles;
+        SolveContext {
+            x: RSliceMut::from_mut_slice(&mut p.x),
+            v: RSliceMut::from_mut_slice(&mut p.v),
+            x0: RSlice::from_slice(&p.x0),
+            inv_mass: RSlice::from_slice(&p.inv_mass),
+            object: RSlice::from_slice(&p.object),
+            flags: RSlice::from_slice(&p.flags),
+            attributes: RSlice::from_slice(&[]),
+            h: 1.0 / (self.settings.frame_rate * self.settings.substeps as f64),
+            time: self.time,
+            gravity: self.settings.gravity,
+            frame: self.frame,
+            substep: 0,
+            substeps: self.settings.substeps,
+            pass: 0,
+            passes: 1,
+        }
+    }
+
+    /// Every group's residual at the current positions.
+    pub fn residuals(&mut self) -> Result<Vec<Residual>, StepError> {
+        let frame = self.frame;
+        let mut groups = std::mem::take(&mut self.groups);
+        let mut out = Vec::with_capacity(groups.len());
+        let mut failure = None;
+        {
+            let ctx = self.read_context();
+            for g in &mut groups {
+                match g.group.residual(&ctx) {
+                    RResult::ROk(r) => out.push(r),
+                    RResult::RErr(error) => {
+                        failure = Some(StepError::Plugin {
+                            plugin: g.plugin.clone(),
+                            path: g.path.clone(),
+                            group: g.name.clone(),
+                            stage: Stage::Report,
+                            frame,
+                            substep: 0,
+                            error,
+                        });
+                        break;
+                    }
+                }
+            }
+        }
+        self.groups = groups;
+        match failure {
+            Some(e) => Err(e),
+            None => Ok(out),
+        }
+    }
+
+    /// Named values each group reports (prefixed `group.`).
+    pub fn reports(&mut self) -> Result<Vec<(String, f64)>, StepError> {
+        let frame = self.frame;
+        let groups = std::mem::take(&mut self.groups);
+        let mut out = Vec::new();
+        let mut failure = None;
+        {
+            let ctx = self.read_context();
+            for g in groups.iter().filter(|g| g.stages.contains(Stages::REPORT)) {
+                match g.group.report(&ctx) {
+                    RResult::ROk(stats) => out.extend(
+                        stats
+                            .iter()
+                            .map(|s| (format!("{}.{}", g.name, s.name), s.value)),
+                    ),
+                    RResult::RErr(error) => {
+                        failure = Some(StepError::Plugin {
+                            plugin: g.plugin.clone(),
+                            path: g.path.clone(),
+                            group: g.name.clone(),
+                            stage: Stage::Report,
+                            frame,
+                            substep: 0,
+                            error,
+                        });
+                        break;
+                    }
+                }
+            }
+        }
+        self.groups = groups;
+        match failure {
+            Some(e) => Err(e),
+            None => Ok(out),
+        }
+    }
+
+    /// Kinetic energy of the dynamic particles (J).
+    pub fn kinetic_energy(&self) -> f64 {
+        let p = &self.particles;
+        p.v.iter()
+            .zip(&p.inv_mass)
+            .filter(|(_, &w)| w > 0.0)
+            .map(|(v, &w)| 0.5 * DVec3::from_array(*v).length_squared() / w)
+            .sum()
+    }
+
+    /// Gravitational potential energy of the dynamic particles relative to the origin (J).
+    pub fn gravity_energy(&self) -> f64 {
+        let g = DVec3::from_array(self.settings.gravity);
+        let p = &self.particles;
+        p.x.iter()
+            .zip(&p.inv_mass)
+            .filter(|(_, &w)| w > 0.0)
+            .map(|(x, &w)| -g.dot(DVec3::from_array(*x)) / w)
+            .sum()
+    }
+
+    /// Positions as glam vectors.
+    pub fn positions(&self) -> &[DVec3] {
+        nucleus_sdk::view::as_dvec3(&self.particles.x)
+    }
+
+    /// Velocities as glam vectors.
+    pub fn velocities(&self) -> &[DVec3] {
+        nucleus_sdk::view::as_dvec3(&self.particles.v)
+    }
+
+    /// The object named `name`.
+    pub fn object(&self, name: &str) -> Option<&ObjectData> {
+        self.objects.iter().find(|o| o.name == name)
+    }
+}
+
+fn scene_source(scene: &Scene) -> &str {
+    scene.source()
+}
