@@ -143,31 +143,10 @@ pub fn search_path(dirs: &[PathBuf], include_default: bool) -> Vec<PathBuf> {
 /// that say what differs.
 pub fn summarize_library_error(e: &LibraryError) -> String {
     match e {
-        LibraryError::AbiInstability(_) => {
-            let full = e.to_string();
-            let mut keep: Vec<String> = Vec::new();
-            for line in full.lines() {
-                let l = line.trim();
-                let interesting = l.starts_with("Error:")
-                    || l.contains("expected")
-                    || l.contains("found")
-                    || l.contains("mismatched")
-                    || l.contains("Mismatched")
-                    || l.contains("field")
-                    || l.contains("Too many")
-                    || l.contains("too many");
-                if interesting && !keep.iter().any(|k| k == l) {
-                    keep.push(l.to_string());
-                }
-                if keep.len() >= 6 {
-                    break;
-                }
-            }
-            format!(
-                "incompatible plugin ABI (built against a different Nucleus SDK layout; rebuild it against this SDK): {}",
-                keep.join(" | ")
-            )
-        }
+        LibraryError::AbiInstability(_) => format!(
+            "incompatible plugin ABI (built against a different Nucleus SDK layout; rebuild it against this SDK): {}",
+            summarize_layout_report(&e.to_string())
+        ),
         LibraryError::IncompatibleVersionNumber {
             expected_version,
             actual_version,
@@ -179,6 +158,44 @@ pub fn summarize_library_error(e: &LibraryError) -> String {
             let s = other.to_string();
             s.lines().take(3).collect::<Vec<_>>().join(" ")
         }
+    }
+}
+
+/// The "Error:" blocks of abi_stable's layout report, each on one line:
+/// `mismatched type: expected PluginMod, found OldPluginMod`.
+fn summarize_layout_report(report: &str) -> String {
+    let mut out: Vec<String> = Vec::new();
+    let mut lines = report.lines().map(str::trim).peekable();
+    while let Some(line) = lines.next() {
+        let Some(what) = line.strip_prefix("Error:") else {
+            continue;
+        };
+        let mut item = what.trim().to_string();
+        while let Some(next) = lines.peek() {
+            if next.is_empty() || next.starts_with("Error:") {
+                break;
+            }
+            let next = lines.next().unwrap_or_default();
+            match next {
+                "Expected:" => item.push_str(": expected"),
+                "Found:" => item.push_str(", found"),
+                other => {
+                    item.push(' ');
+                    item.push_str(other);
+                }
+            }
+        }
+        if !out.contains(&item) {
+            out.push(item);
+        }
+        if out.len() == 3 {
+            break;
+        }
+    }
+    if out.is_empty() {
+        "the layout check failed".to_string()
+    } else {
+        out.join("; ")
     }
 }
 

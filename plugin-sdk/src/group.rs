@@ -163,16 +163,62 @@ pub fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
     }
 }
 
-/// Runs `f`, turning a panic into [`PluginError::PANICKED`].
+thread_local! {
+    /// Depth of nested [`guard`] calls on this thread, and where the last guarded panic was.
+    static GUARD: std::cell::RefCell<(u32, Option<String>)> = const { std::cell::RefCell::new((0, None)) };
+}
+
+/// Installs (once per library) a panic hook that, inside [`guard`], records where the panic
+/// happened instead of printing it: the host reports it as an error naming the plugin and
+/// group. Outside a guard the previous hook runs as usual.
+fn install_quiet_hook() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        let previous = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            let guarded = GUARD
+                .try_with(|g| {
+                    let mut g = g.borrow_mut();
+                    if g.0 > 0 {
+                        g.1 = info.location().map(|l| format!("{}:{}", l.file(), l.line()));
+                        true
+                    } else {
+                        false
+                    }
+                })
+                .unwrap_or(false);
+            if !guarded {
+                previous(info);
+            }
+        }));
+    });
+}
+
+/// Runs `f`, turning a panic into [`PluginError::PANICKED`] whose message says where the
+/// plugin panicked.
 pub fn guard<T>(f: impl FnOnce() -> Result<T, PluginError>) -> RResult<T, PluginError> {
-    match catch_unwind(AssertUnwindSafe(f)) {
+    install_quiet_hook();
+    let _ = GUARD.try_with(|g| g.borrow_mut().0 += 1);
+    let result = catch_unwind(AssertUnwindSafe(f));
+    let location = GUARD
+        .try_with(|g| {
+            let mut g = g.borrow_mut();
+            g.0 -= 1;
+            g.1.take()
+        })
+        .ok()
+        .flatten();
+    match result {
         Ok(Ok(v)) => RResult::ROk(v),
         Ok(Err(e)) => RResult::RErr(e),
-        Err(payload) => RResult::RErr(PluginError::new(
-            PluginError::PANICKED,
-            "",
-            panic_message(payload.as_ref()),
-        )),
+        Err(payload) => {
+            let msg = panic_message(payload.as_ref());
+            let msg = match location {
+                Some(at) => format!("panicked at {at}: {msg}"),
+                None => format!("panicked: {msg}"),
+            };
+            RResult::RErr(PluginError::new(PluginError::PANICKED, "", msg))
+        }
     }
 }
 

@@ -1,1 +1,101 @@
+//! Helpers for the workspace tests: they go through the real, dynamically loaded plugins that
+//! `cargo xtask test` builds and stages into `target/<profile>/plugins/`.
 
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU32, Ordering};
+
+use nucleus_core::{Registry, Scene, Simulation};
+
+/// `target/<profile>`, found from the running test executable (`target/<profile>/deps/..`).
+pub fn profile_dir() -> PathBuf {
+    let exe = std::env::current_exe().expect("test executable path");
+    exe.parent()
+        .and_then(Path::parent)
+        .expect("test executables live in target/<profile>/deps")
+        .to_path_buf()
+}
+
+/// The staged plugin directory, with a clear message if the plugins were not built.
+pub fn plugin_dir() -> PathBuf {
+    let dir = profile_dir().join("plugins");
+    let stretch = dir.join(lib_name("nucleus_stretch"));
+    assert!(
+        stretch.is_file(),
+        "{} is missing: run the test suite with `cargo xtask test`, which builds and stages the plugin libraries",
+        stretch.display()
+    );
+    dir
+}
+
+/// The platform file name of a cdylib.
+pub fn lib_name(stem: &str) -> String {
+    format!(
+        "{}{stem}{}",
+        std::env::consts::DLL_PREFIX,
+        std::env::consts::DLL_SUFFIX
+    )
+}
+
+/// A test fixture library (`tests/fixtures/<name>`), built by `cargo build --workspace`.
+pub fn fixture(name: &str) -> PathBuf {
+    let path = profile_dir().join(lib_name(&format!("nucleus_fixture_{name}")));
+    assert!(
+        path.is_file(),
+        "{} is missing: run the test suite with `cargo xtask test`",
+        path.display()
+    );
+    path
+}
+
+/// The `nucleus` binary.
+pub fn host_bin() -> PathBuf {
+    let path = profile_dir().join(format!("nucleus{}", std::env::consts::EXE_SUFFIX));
+    assert!(path.is_file(), "{} is missing: run `cargo xtask test`", path.display());
+    path
+}
+
+/// A fresh, empty directory under `target/<profile>/test-tmp/`.
+pub fn temp_dir(tag: &str) -> PathBuf {
+    static COUNTER: AtomicU32 = AtomicU32::new(0);
+    let n = COUNTER.fetch_add(1, Ordering::SeqCst);
+    let dir = profile_dir()
+        .join("test-tmp")
+        .join(format!("{tag}-{}-{n}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("create temp dir");
+    dir
+}
+
+/// A temporary plugin directory holding copies of `libs`.
+pub fn plugin_dir_with(tag: &str, libs: &[PathBuf]) -> PathBuf {
+    let dir = temp_dir(tag);
+    for lib in libs {
+        std::fs::copy(lib, dir.join(lib.file_name().expect("file name"))).expect("copy plugin");
+    }
+    dir
+}
+
+/// The staged stretch plugin library.
+pub fn stretch_lib() -> PathBuf {
+    plugin_dir().join(lib_name("nucleus_stretch"))
+}
+
+/// Discovers the plugins of `dirs` (no default directory, no environment).
+pub fn registry(dirs: &[PathBuf]) -> Registry {
+    Registry::discover(dirs)
+}
+
+/// Parses a scene from text (as if read from `inline.toml`).
+pub fn scene(text: &str) -> Scene {
+    Scene::parse(text, Path::new("inline.toml")).unwrap_or_else(|e| panic!("scene: {e}"))
+}
+
+/// Builds a simulation from scene text with the staged plugins plus `extra` libraries.
+pub fn simulation(text: &str, extra: &[PathBuf]) -> Simulation {
+    let mut dirs = vec![plugin_dir()];
+    if !extra.is_empty() {
+        dirs.push(plugin_dir_with("extra", extra));
+    }
+    let reg = registry(&dirs);
+    Simulation::build(&scene(text), &reg).unwrap_or_else(|e| panic!("build: {e}"))
+}

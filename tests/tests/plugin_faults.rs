@@ -1,0 +1,154 @@
+//! Faults at the plugin boundary are reported, never suffered: an incompatible plugin is
+//! refused with a summarised layout error naming its file; a panicking plugin comes back as an
+//! error naming the plugin and the group and the run stops cleanly; a plugin that writes NaN
+//! is named; a non-library file is skipped with a warning; two plugins with the same kind are
+//! an error naming both files; a factory that rejects a parameter names it.
+
+use std::process::Command;
+
+use nucleus_core::plugins::PluginLoadError;
+use nucleus_core::world::{BuildError, StepError};
+use nucleus_core::Simulation;
+use nucleus_tests::*;
+
+const CLOTH: &str = r#"
+[solver]
+frames = 5
+substeps = 2
+[[objects]]
+name = "cloth"
+pins = ["corners:row0"]
+[objects.grid]
+size = [1.0, 1.0]
+resolution = [4, 4]
+[[constraints]]
+kind = "stretch"
+objects = ["cloth"]
+"#;
+
+fn with_kind(kind: &str, params: &str) -> String {
+    format!("{CLOTH}\n[[constraints]]\nkind = \"{kind}\"\nname = \"my_{kind}\"\nobjects = [\"cloth\"]\nparams = {params}\n")
+}
+
+#[test]
+fn incompatible_sdk_layout_is_refused_with_a_summary() {
+    let dir = plugin_dir_with("old-abi", &[fixture("old_abi")]);
+    let reg = registry(&[plugin_dir(), dir.clone()]);
+    assert_eq!(reg.plugins.len(), 1, "only the stretch plugin loads");
+    assert_eq!(reg.refused.len(), 1, "{:?}", reg.refused);
+    let cause = &reg.refused[0].cause;
+    assert!(cause.contains("incompatible plugin ABI"), "{cause}");
+    assert!(cause.contains("expected PluginMod, found OldPluginMod"), "{cause}");
+    assert!(cause.lines().count() <= 3, "the layout report must be summarised: {cause}");
+    assert!(cause.len() < 2000, "summary too long: {} chars", cause.len());
+    // A scene asking for its kind fails and names the refused file.
+    let scene = scene(&with_kind("old_kind", "{}"));
+    let err = Simulation::build(&scene, &reg).err().expect("must fail");
+    let msg = err.to_string();
+    assert!(msg.contains("old_kind") && msg.contains("old_abi"), "{msg}");
+    assert!(msg.starts_with("inline.toml:"), "location first: {msg}");
+}
+
+#[test]
+fn non_library_file_is_skipped_with_a_warning() {
+    let dir = plugin_dir_with("junk", &[stretch_lib()]);
+    std::fs::write(dir.join("notes.txt"), "not a plugin").unwrap();
+    std::fs::write(dir.join(lib_name("fake")), "not a library either").unwrap();
+    let reg = registry(&[dir]);
+    assert_eq!(reg.plugins.len(), 1);
+    assert_eq!(reg.warnings.len(), 2, "{:?}", reg.warnings);
+    assert!(reg.warnings.iter().any(|w| w.contains("notes.txt")));
+    assert!(reg.warnings.iter().any(|w| w.contains("fake") && w.contains("not a loadable library")));
+}
+
+#[test]
+fn duplicate_kind_names_both_files() {
+    let a = plugin_dir_with("dup-a", &[stretch_lib()]);
+    let b = plugin_dir_with("dup-b", &[stretch_lib()]);
+    let reg = registry(&[a.clone(), b.clone()]);
+    let dups = reg.duplicate_kinds();
+    assert_eq!(dups.len(), 1);
+    let msg = dups[0].to_string();
+    assert!(msg.contains(a.to_str().unwrap()) && msg.contains(b.to_str().unwrap()), "{msg}");
+    let err = Simulation::build(&scene(CLOTH), &reg).err().expect("ambiguous kind");
+    assert!(matches!(err, BuildError::Plugin { error: PluginLoadError::DuplicateKind { .. }, .. }));
+}
+
+#[test]
+fn panic_in_project_names_plugin_and_group_and_stops() {
+    let mut sim = simulation(&with_kind("panic_in_project", "{ at = 0.02 }"), &[fixture("faulty")]);
+    let mut frames_ok = 0;
+    let err = loop {
+        match sim.step_frame() {
+            Ok(()) => frames_ok += 1,
+            Err(e) => break e,
+        }
+        assert!(frames_ok < 5, "the fault never fired");
+    };
+    assert_eq!(frames_ok, 1, "fault at t = 0.02 s fires in frame 2");
+    let msg = err.to_string();
+    assert!(matches!(err, StepError::Plugin { .. }), "{msg}");
+    assert!(msg.contains("fixture-faulty") && msg.contains("my_panic_in_project"), "{msg}");
+    assert!(msg.contains("deliberate panic in project"), "{msg}");
+    // The group is poisoned: calling it again gives an error, never undefined behaviour.
+    let again = sim.step_frame().unwrap_err().to_string();
+    assert!(again.contains("poisoned"), "{again}");
+}
+
+#[test]
+fn panic_in_factory_is_an_error_naming_the_group() {
+    let reg = registry(&[plugin_dir(), plugin_dir_with("factory", &[fixture("faulty")])]);
+    let err = Simulation::build(&scene(&with_kind("panic_in_factory", "{}")), &reg)
+        .err()
+        .expect("must fail");
+    let msg = err.to_string();
+    assert!(msg.contains("my_panic_in_factory") && msg.contains("deliberate panic in factory"), "{msg}");
+}
+
+#[test]
+fn nan_writer_is_named_and_state_check_stops_the_run() {
+    let mut sim = simulation(&with_kind("write_nan", "{ at = 0.0 }"), &[fixture("faulty")]);
+    let err = sim.step_frame().unwrap_err();
+    let msg = err.to_string();
+    assert!(matches!(err, StepError::NonFinite { .. }), "{msg}");
+    assert!(msg.contains("fixture-faulty") && msg.contains("my_write_nan") && msg.contains("position"), "{msg}");
+}
+
+#[test]
+fn factory_rejecting_a_parameter_names_it() {
+    let reg = registry(&[plugin_dir(), plugin_dir_with("picky", &[fixture("faulty")])]);
+    let err = Simulation::build(&scene(&with_kind("picky", "{ level = 7 }")), &reg)
+        .err()
+        .expect("must fail");
+    let msg = err.to_string();
+    assert!(msg.contains("`level`") && msg.contains("at most 3"), "{msg}");
+    // The SDK's own validation names unknown and out-of-range parameters before the factory.
+    let err = Simulation::build(&scene(&with_kind("picky", "{ levle = 1 }")), &reg)
+        .err()
+        .expect("must fail");
+    assert!(err.to_string().contains("`levle`"), "{err}");
+}
+
+#[test]
+fn host_run_with_panicking_plugin_exits_nonzero_and_marks_output_failed() {
+    let dir = temp_dir("host-panic");
+    let scene_path = dir.join("scene.toml");
+    std::fs::write(&scene_path, with_kind("panic_in_project", "{ at = 0.04 }")).unwrap();
+    let extra = plugin_dir_with("host-panic-plugins", &[fixture("faulty")]);
+    let out = dir.join("out");
+    let res = Command::new(host_bin())
+        .args(["run", scene_path.to_str().unwrap(), "--quiet", "--out", out.to_str().unwrap()])
+        .args(["--plugins", plugin_dir().to_str().unwrap(), "--plugins", extra.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(res.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&res.stderr);
+    let last = stderr.lines().last().unwrap_or_default();
+    assert!(last.starts_with("error: ") && last.contains("my_panic_in_project"), "{stderr}");
+    assert!(!out.join("stats.csv").exists(), "a failed run must not claim completeness");
+    let run_json = std::fs::read_to_string(out.join("run.json")).unwrap();
+    assert!(run_json.contains("\"failed\""), "{run_json}");
+    // Frames written before the fault are whole OBJ files.
+    let frame = std::fs::read_to_string(out.join("frame_0001.obj")).unwrap();
+    assert_eq!(frame.lines().filter(|l| l.starts_with("v ")).count(), 16);
+}
