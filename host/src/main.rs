@@ -115,7 +115,9 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(f) => {
-            eprintln!("error: {}", f.message);
+            // One line, whatever the cause's formatting.
+            let one_line: Vec<&str> = f.message.lines().map(str::trim).collect();
+            eprintln!("error: {}", one_line.join(" "));
             ExitCode::from(f.code)
         }
     }

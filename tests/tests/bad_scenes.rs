@@ -1,0 +1,146 @@
+//! Bad scenes get a clear error with `file:line:col`, a non-zero exit, and no output that
+//! claims to be complete: malformed TOML, an unknown field, an unknown kind, a missing OBJ
+//! file, a pin index out of range, NaN or negative mass, zero substeps.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use nucleus_tests::*;
+
+const GOOD: &str = r#"[solver]
+frames = 3
+substeps = 2
+
+[[objects]]
+name = "cloth"
+mass = 1.0
+pins = [0, 3]
+[objects.grid]
+size = [1.0, 1.0]
+resolution = [4, 4]
+
+[[constraints]]
+kind = "stretch"
+objects = ["cloth"]
+"#;
+
+/// Runs `nucleus run` on `text` written to a scene file; returns (exit code, last stderr line,
+/// output directory).
+fn run(tag: &str, text: &str) -> (Option<i32>, String, PathBuf, PathBuf) {
+    let dir = temp_dir(tag);
+    let scene = dir.join("scene.toml");
+    std::fs::write(&scene, text).unwrap();
+    let out = dir.join("out");
+    let res = Command::new(host_bin())
+        .args(["run", scene.to_str().unwrap(), "--quiet", "--no-default-plugins"])
+        .args(["--plugins", plugin_dir().to_str().unwrap()])
+        .args(["--out", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&res.stderr).to_string();
+    let last = stderr.lines().last().unwrap_or_default().to_string();
+    (res.status.code(), last, scene, out)
+}
+
+fn assert_error_at(tag: &str, text: &str, line: usize, needle: &str) {
+    let (code, msg, scene, out) = run(tag, text);
+    assert_eq!(code, Some(2), "{tag}: exit code; stderr: {msg}");
+    let loc = format!("error: {}:{line}:", scene.display());
+    assert!(msg.starts_with(&loc), "{tag}: expected location {loc} in: {msg}");
+    assert!(msg.contains(needle), "{tag}: expected `{needle}` in: {msg}");
+    assert!(!out.join("stats.csv").exists() && !out.join("run.json").exists());
+    assert!(!out.exists(), "{tag}: a scene error must stop before any output is written");
+}
+
+fn replace(from: &str, to: &str) -> String {
+    assert!(GOOD.contains(from), "{from}");
+    GOOD.replacen(from, to, 1)
+}
+
+#[test]
+fn good_scene_runs_and_marks_output_complete() {
+    let (code, msg, _, out) = run("good", GOOD);
+    assert_eq!(code, Some(0), "{msg}");
+    let stats = std::fs::read_to_string(out.join("stats.csv")).unwrap();
+    assert_eq!(stats.lines().count(), 4, "header + 3 frames:\n{stats}");
+    assert!(stats.starts_with("frame,time_s,wall_s,kinetic_j,potential_j,stretch.max,stretch.rms"));
+    let run_json = std::fs::read_to_string(out.join("run.json")).unwrap();
+    assert!(run_json.contains("\"complete\""));
+    for f in 0..=3 {
+        assert!(out.join(format!("frame_{f:04}.obj")).is_file());
+    }
+    assert!(!out.join("stats.csv.partial").exists());
+}
+
+#[test]
+fn malformed_toml_is_located() {
+    assert_error_at("malformed", &replace("frames = 3", "frames = = 3"), 2, "");
+}
+
+#[test]
+fn unknown_field_is_located_and_named() {
+    assert_error_at("unknown-field", &replace("mass = 1.0", "mas = 1.0"), 7, "unknown field `mas`");
+}
+
+#[test]
+fn unknown_parameter_is_located_and_named() {
+    let text = replace("objects = [\"cloth\"]\n", "objects = [\"cloth\"]\nparams = { complience = 0.0 }\n");
+    assert_error_at("unknown-param", &text, 16, "`complience`");
+}
+
+#[test]
+fn unknown_kind_is_located() {
+    assert_error_at("unknown-kind", &replace("kind = \"stretch\"", "kind = \"strech\""), 14, "no plugin provides kind `strech`");
+}
+
+#[test]
+fn missing_obj_file_is_located_and_named() {
+    let text = replace(
+        "[objects.grid]\nsize = [1.0, 1.0]\nresolution = [4, 4]",
+        "[objects.mesh]\npath = \"missing.obj\"",
+    );
+    let text = text.replace("pins = [0, 3]\n", "");
+    assert_error_at("missing-obj", &text, 9, "missing.obj");
+}
+
+#[test]
+fn pin_out_of_range_is_located() {
+    assert_error_at("pin-range", &replace("pins = [0, 3]", "pins = [0, 16]"), 8, "pin index 16 is out of range");
+}
+
+#[test]
+fn nan_and_negative_mass_are_located() {
+    assert_error_at("nan-mass", &replace("mass = 1.0", "mass = nan"), 7, "mass must be a positive finite number");
+    assert_error_at("neg-mass", &replace("mass = 1.0", "mass = -2.0"), 7, "mass must be a positive finite number");
+}
+
+#[test]
+fn zero_substeps_is_refused() {
+    assert_error_at("zero-substeps", &replace("substeps = 2", "substeps = 0"), 3, "substeps must be at least 1");
+}
+
+#[test]
+fn unknown_object_in_constraint_is_located() {
+    assert_error_at("unknown-object", &replace("objects = [\"cloth\"]", "objects = [\"clot\"]"), 15, "no object named `clot`");
+}
+
+#[test]
+fn obj_mesh_loads_relative_to_the_scene() {
+    let dir = temp_dir("obj-mesh");
+    std::fs::write(
+        dir.join("tri.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 0 1\nv 1 0 1\nf 1 2 3\nf 2 4 3\n",
+    )
+    .unwrap();
+    let text = replace(
+        "[objects.grid]\nsize = [1.0, 1.0]\nresolution = [4, 4]",
+        "[objects.mesh]\npath = \"tri.obj\"",
+    )
+    .replace("pins = [0, 3]", "pins = [0]");
+    let scene_path = dir.join("scene.toml");
+    std::fs::write(&scene_path, &text).unwrap();
+    let scene = nucleus_core::Scene::load(Path::new(&scene_path)).unwrap();
+    let sim = nucleus_core::Simulation::build(&scene, &registry(&[plugin_dir()])).unwrap();
+    assert_eq!(sim.particles.len(), 4);
+    assert_eq!(sim.groups[0].len, 5, "two triangles share one edge: 5 edges");
+}
