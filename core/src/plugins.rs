@@ -54,7 +54,7 @@ pub enum PluginLoadError {
         /// Group name.
         group: String,
         /// The plugin's error.
-        error: PluginError,
+        error: Box<PluginError>,
     },
 }
 

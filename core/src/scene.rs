@@ -356,7 +356,7 @@ impl Scene {
                 path: path.to_path_buf(),
                 line,
                 col,
-                message: e.message().trim().split_whitespace().collect::<Vec<_>>().join(" "),
+                message: e.message().split_whitespace().collect::<Vec<_>>().join(" "),
             }
         })?;
         let scene = Scene {

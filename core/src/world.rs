@@ -41,7 +41,7 @@ pub enum BuildError {
         /// `file:line:col` of the constraint in the scene.
         location: String,
         /// The cause.
-        error: PluginLoadError,
+        error: Box<PluginLoadError>,
     },
 }
 
@@ -91,7 +91,7 @@ pub enum StepError {
         /// Substep.
         substep: u32,
         /// The plugin's error.
-        error: PluginError,
+        error: Box<PluginError>,
     },
     /// A group's call left a NaN or infinity in the state.
     #[error("plugin `{plugin}` ({}), group `{group}`, {stage} at frame {frame} substep {substep}: wrote a non-finite {what} (NaN or infinity); stopping", path.display())]
@@ -399,7 +399,7 @@ impl Simulation {
             };
             let (plugin, info) = registry.find(kind).map_err(|error| BuildError::Plugin {
                 location: location.clone(),
-                error,
+                error: Box::new(error),
             })?;
             let n = kind_counts.entry(kind.clone()).or_insert(0);
             *n += 1;
@@ -448,15 +448,15 @@ impl Simulation {
                     plugin: plugin.info.name.to_string(),
                     path: plugin.path.clone(),
                     group: name.clone(),
-                    error,
+                    error: Box::new(error),
                 };
                 BuildError::Plugin {
                     location: location.clone(),
-                    error: plugin_error,
+                    error: Box::new(plugin_error),
                 }
             })?;
             let stages = group.stages();
-            let len = group.len();
+            let len = group.constraint_count();
             groups.push(Group {
                 name,
                 kind: kind.clone(),
@@ -654,7 +654,6 @@ impl Simulation {
             Stage::EndSubstep => group.group.end_substep(&mut ctx),
             Stage::Report => RResult::ROk(()),
         };
-        drop(ctx);
         if let RResult::RErr(error) = result {
             return Err(StepError::Plugin {
                 plugin: group.plugin.clone(),
@@ -663,7 +662,7 @@ impl Simulation {
                 stage,
                 frame: self.frame,
                 substep,
-                error,
+                error: Box::new(error),
             });
         }
         if self.settings.check_finite {
@@ -729,7 +728,7 @@ impl Simulation {
                             stage: Stage::Report,
                             frame,
                             substep: 0,
-                            error,
+                            error: Box::new(error),
                         });
                         break;
                     }
@@ -766,7 +765,7 @@ impl Simulation {
                             stage: Stage::Report,
                             frame,
                             substep: 0,
-                            error,
+                            error: Box::new(error),
                         });
                         break;
                     }

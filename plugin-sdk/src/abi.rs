@@ -398,7 +398,7 @@ pub trait GroupAbi: Send {
     /// The optional stages implemented.
     fn stages(&self) -> Stages;
     /// Number of constraints the group owns.
-    fn len(&self) -> u64;
+    fn constraint_count(&self) -> u64;
     /// Velocity-level forces, before prediction.
     fn force(&mut self, ctx: &mut SolveContext<'_>) -> RResult<(), PluginError>;
     /// Start of a substep, after prediction.

@@ -273,7 +273,7 @@ impl GroupAbi for Adapter {
         }
     }
 
-    fn len(&self) -> u64 {
+    fn constraint_count(&self) -> u64 {
         catch_unwind(AssertUnwindSafe(|| self.group.len() as u64)).unwrap_or(0)
     }
 

@@ -71,7 +71,7 @@ fn duplicate_kind_names_both_files() {
     let msg = dups[0].to_string();
     assert!(msg.contains(a.to_str().unwrap()) && msg.contains(b.to_str().unwrap()), "{msg}");
     let err = Simulation::build(&scene(CLOTH), &reg).err().expect("ambiguous kind");
-    assert!(matches!(err, BuildError::Plugin { error: PluginLoadError::DuplicateKind { .. }, .. }));
+    assert!(matches!(err, BuildError::Plugin { ref error, .. } if matches!(**error, PluginLoadError::DuplicateKind { .. })));
 }
 
 #[test]
