@@ -57,7 +57,7 @@ pub enum SceneError {
         message: String,
     },
     /// A value is syntactically fine but invalid (a pin out of range, a negative mass...).
-    #[error("{path}:{line}:{col}: {message}")]
+    #[error("{}", located(path, *line, *col, message))]
     Invalid {
         /// The scene file.
         path: PathBuf,
@@ -68,6 +68,14 @@ pub enum SceneError {
         /// What is wrong.
         message: String,
     },
+}
+
+fn located(path: &Path, line: usize, col: usize, message: &str) -> String {
+    if line == 0 {
+        format!("{}: {message}", path.display())
+    } else {
+        format!("{}:{line}:{col}: {message}", path.display())
+    }
 }
 
 /// Solver settings.
@@ -329,6 +337,57 @@ pub struct Scene {
     source: String,
 }
 
+/// Sets `a.b.0.c = value` in a TOML document (numbers index arrays).
+fn apply_override(doc: &mut toml::Table, assignment: &str) -> Result<(), String> {
+    let (key, value) = assignment
+        .split_once('=')
+        .ok_or_else(|| "expected KEY=VALUE".to_string())?;
+    let value: toml::Value = toml::from_str::<toml::Table>(&format!("v = {}", value.trim()))
+        .map_err(|e| format!("bad value: {}", e.message()))?
+        .remove("v")
+        .ok_or_else(|| "bad value".to_string())?;
+    let parts: Vec<&str> = key.trim().split('.').collect();
+    let (last, path) = parts.split_last().ok_or_else(|| "empty key".to_string())?;
+    let mut cur: &mut toml::Value = doc
+        .entry(path.first().copied().unwrap_or(last).to_string())
+        .or_insert_with(|| toml::Value::Table(toml::Table::new()));
+    if path.is_empty() {
+        *cur = value;
+        return Ok(());
+    }
+    for part in &path[1..] {
+        cur = match cur {
+            toml::Value::Table(t) => t
+                .entry(part.to_string())
+                .or_insert_with(|| toml::Value::Table(toml::Table::new())),
+            toml::Value::Array(a) => {
+                let i: usize = part
+                    .parse()
+                    .map_err(|_| format!("`{part}` is not an index"))?;
+                let n = a.len();
+                a.get_mut(i)
+                    .ok_or_else(|| format!("index {i} out of range ({n} entries)"))?
+            }
+            _ => return Err(format!("`{part}`: not a table")),
+        };
+    }
+    match cur {
+        toml::Value::Table(t) => {
+            t.insert(last.to_string(), value);
+        }
+        toml::Value::Array(a) => {
+            let i: usize = last
+                .parse()
+                .map_err(|_| format!("`{last}` is not an index"))?;
+            let n = a.len();
+            *a.get_mut(i)
+                .ok_or_else(|| format!("index {i} out of range ({n} entries)"))? = value;
+        }
+        _ => return Err(format!("`{last}`: parent is not a table")),
+    }
+    Ok(())
+}
+
 /// 1-based line and column of a byte offset.
 pub fn line_col(source: &str, offset: usize) -> (usize, usize) {
     let offset = offset.min(source.len());
@@ -346,6 +405,43 @@ impl Scene {
             source,
         })?;
         Self::parse(&source, path)
+    }
+
+    /// Reads a scene file and applies `key=value` overrides (`solver.substeps=4`,
+    /// `objects.0.grid.resolution=[128,128]`; values are TOML) before parsing. Error
+    /// locations then refer to the overridden text.
+    pub fn load_with_overrides(path: &Path, overrides: &[String]) -> Result<Scene, SceneError> {
+        if overrides.is_empty() {
+            return Self::load(path);
+        }
+        let source = std::fs::read_to_string(path).map_err(|source| SceneError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let mut doc: toml::Table = toml::from_str(&source).map_err(|e| {
+            let (line, col) = e.span().map_or((1, 1), |s| line_col(&source, s.start));
+            SceneError::Parse {
+                path: path.to_path_buf(),
+                line,
+                col,
+                message: e.message().split_whitespace().collect::<Vec<_>>().join(" "),
+            }
+        })?;
+        for o in overrides {
+            apply_override(&mut doc, o).map_err(|message| SceneError::Invalid {
+                path: path.to_path_buf(),
+                line: 0,
+                col: 0,
+                message: format!("--set {o}: {message}"),
+            })?;
+        }
+        let text = toml::to_string(&doc).map_err(|e| SceneError::Invalid {
+            path: path.to_path_buf(),
+            line: 0,
+            col: 0,
+            message: e.to_string(),
+        })?;
+        Self::parse(&text, path)
     }
 
     /// Parses scene text; `path` is used for error messages and relative mesh paths.

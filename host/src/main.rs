@@ -51,6 +51,9 @@ enum Command {
         /// Override the iterations (importance multiplier).
         #[arg(long)]
         iterations: Option<u32>,
+        /// Override any scene value: `--set objects.0.grid.resolution=[128,128]` (repeatable).
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
         /// Print plugins, groups and the schedule.
         #[arg(long, short)]
         verbose: bool,
@@ -97,6 +100,7 @@ fn main() -> ExitCode {
             frames,
             substeps,
             iterations,
+            set,
             verbose,
             quiet,
             plugin_args,
@@ -106,6 +110,7 @@ fn main() -> ExitCode {
             frames,
             substeps,
             iterations,
+            set,
             verbose,
             quiet,
             plugin_args,
@@ -200,6 +205,7 @@ struct RunArgs {
     frames: Option<u32>,
     substeps: Option<u32>,
     iterations: Option<u32>,
+    set: Vec<String>,
     verbose: bool,
     quiet: bool,
     plugin_args: PluginArgs,
@@ -213,7 +219,7 @@ fn default_out(scene: &Path) -> PathBuf {
 }
 
 fn run(args: RunArgs) -> Result<(), Failure> {
-    let mut scene = Scene::load(&args.scene).map_err(Failure::input)?;
+    let mut scene = Scene::load_with_overrides(&args.scene, &args.set).map_err(Failure::input)?;
     if let Some(f) = args.frames {
         scene.file.solver.frames = f;
     }
@@ -251,10 +257,17 @@ fn run(args: RunArgs) -> Result<(), Failure> {
             .iter()
             .map(|g| Slot {
                 order: g.order,
-                importance: if g.len > 0 { g.importance * sim.settings.iterations } else { 0 },
+                importance: if g.len > 0 {
+                    g.importance * sim.settings.iterations
+                } else {
+                    0
+                },
             })
             .collect();
-        eprintln!("schedule per substep:\n{}", describe(&names, &slots, sim.settings.schedule));
+        eprintln!(
+            "schedule per substep:\n{}",
+            describe(&names, &slots, sim.settings.schedule)
+        );
     }
     let out_dir = args.out.unwrap_or_else(|| default_out(&args.scene));
     let frames = sim.settings.frames as u64;
@@ -266,8 +279,10 @@ fn run(args: RunArgs) -> Result<(), Failure> {
     } else {
         let b = ProgressBar::new(frames);
         b.set_style(
-            ProgressStyle::with_template("{spinner} frame {pos}/{len} {wide_bar} {elapsed}/{duration} {msg}")
-                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+            ProgressStyle::with_template(
+                "{spinner} frame {pos}/{len} {wide_bar} {elapsed}/{duration} {msg}",
+            )
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
         );
         b
     };
