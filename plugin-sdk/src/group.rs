@@ -180,7 +180,9 @@ fn install_quiet_hook() {
                 .try_with(|g| {
                     let mut g = g.borrow_mut();
                     if g.0 > 0 {
-                        g.1 = info.location().map(|l| format!("{}:{}", l.file(), l.line()));
+                        g.1 = info
+                            .location()
+                            .map(|l| format!("{}:{}", l.file(), l.line()));
                         true
                     } else {
                         false

@@ -108,7 +108,9 @@ fn check_value(value: &Value, info: &ParamInfo) -> Result<(), String> {
             Some(a) if a.len() == 3 && a.iter().all(|c| c.as_f64().is_some_and(f64::is_finite)) => {
                 Ok(())
             }
-            _ => Err(format!("expected [x, y, z] of finite numbers, found {value}")),
+            _ => Err(format!(
+                "expected [x, y, z] of finite numbers, found {value}"
+            )),
         },
         ParamType::TEXT => match value {
             Value::String(_) => Ok(()),

@@ -50,7 +50,11 @@ pub fn fixture(name: &str) -> PathBuf {
 /// The `nucleus` binary.
 pub fn host_bin() -> PathBuf {
     let path = profile_dir().join(format!("nucleus{}", std::env::consts::EXE_SUFFIX));
-    assert!(path.is_file(), "{} is missing: run `cargo xtask test`", path.display());
+    assert!(
+        path.is_file(),
+        "{} is missing: run `cargo xtask test`",
+        path.display()
+    );
     path
 }
 

@@ -32,7 +32,12 @@ fn run(tag: &str, text: &str) -> (Option<i32>, String, PathBuf, PathBuf) {
     std::fs::write(&scene, text).unwrap();
     let out = dir.join("out");
     let res = Command::new(host_bin())
-        .args(["run", scene.to_str().unwrap(), "--quiet", "--no-default-plugins"])
+        .args([
+            "run",
+            scene.to_str().unwrap(),
+            "--quiet",
+            "--no-default-plugins",
+        ])
         .args(["--plugins", plugin_dir().to_str().unwrap()])
         .args(["--out", out.to_str().unwrap()])
         .output()
@@ -46,10 +51,16 @@ fn assert_error_at(tag: &str, text: &str, line: usize, needle: &str) {
     let (code, msg, scene, out) = run(tag, text);
     assert_eq!(code, Some(2), "{tag}: exit code; stderr: {msg}");
     let loc = format!("error: {}:{line}:", scene.display());
-    assert!(msg.starts_with(&loc), "{tag}: expected location {loc} in: {msg}");
+    assert!(
+        msg.starts_with(&loc),
+        "{tag}: expected location {loc} in: {msg}"
+    );
     assert!(msg.contains(needle), "{tag}: expected `{needle}` in: {msg}");
     assert!(!out.join("stats.csv").exists() && !out.join("run.json").exists());
-    assert!(!out.exists(), "{tag}: a scene error must stop before any output is written");
+    assert!(
+        !out.exists(),
+        "{tag}: a scene error must stop before any output is written"
+    );
 }
 
 fn replace(from: &str, to: &str) -> String {
@@ -79,18 +90,31 @@ fn malformed_toml_is_located() {
 
 #[test]
 fn unknown_field_is_located_and_named() {
-    assert_error_at("unknown-field", &replace("mass = 1.0", "mas = 1.0"), 7, "unknown field `mas`");
+    assert_error_at(
+        "unknown-field",
+        &replace("mass = 1.0", "mas = 1.0"),
+        7,
+        "unknown field `mas`",
+    );
 }
 
 #[test]
 fn unknown_parameter_is_located_and_named() {
-    let text = replace("objects = [\"cloth\"]\n", "objects = [\"cloth\"]\nparams = { complience = 0.0 }\n");
+    let text = replace(
+        "objects = [\"cloth\"]\n",
+        "objects = [\"cloth\"]\nparams = { complience = 0.0 }\n",
+    );
     assert_error_at("unknown-param", &text, 16, "`complience`");
 }
 
 #[test]
 fn unknown_kind_is_located() {
-    assert_error_at("unknown-kind", &replace("kind = \"stretch\"", "kind = \"strech\""), 14, "no plugin provides kind `strech`");
+    assert_error_at(
+        "unknown-kind",
+        &replace("kind = \"stretch\"", "kind = \"strech\""),
+        14,
+        "no plugin provides kind `strech`",
+    );
 }
 
 #[test]
@@ -105,23 +129,48 @@ fn missing_obj_file_is_located_and_named() {
 
 #[test]
 fn pin_out_of_range_is_located() {
-    assert_error_at("pin-range", &replace("pins = [0, 3]", "pins = [0, 16]"), 8, "pin index 16 is out of range");
+    assert_error_at(
+        "pin-range",
+        &replace("pins = [0, 3]", "pins = [0, 16]"),
+        8,
+        "pin index 16 is out of range",
+    );
 }
 
 #[test]
 fn nan_and_negative_mass_are_located() {
-    assert_error_at("nan-mass", &replace("mass = 1.0", "mass = nan"), 7, "mass must be a positive finite number");
-    assert_error_at("neg-mass", &replace("mass = 1.0", "mass = -2.0"), 7, "mass must be a positive finite number");
+    assert_error_at(
+        "nan-mass",
+        &replace("mass = 1.0", "mass = nan"),
+        7,
+        "mass must be a positive finite number",
+    );
+    assert_error_at(
+        "neg-mass",
+        &replace("mass = 1.0", "mass = -2.0"),
+        7,
+        "mass must be a positive finite number",
+    );
 }
 
 #[test]
 fn zero_substeps_is_refused() {
-    assert_error_at("zero-substeps", &replace("substeps = 2", "substeps = 0"), 3, "substeps must be at least 1");
+    assert_error_at(
+        "zero-substeps",
+        &replace("substeps = 2", "substeps = 0"),
+        3,
+        "substeps must be at least 1",
+    );
 }
 
 #[test]
 fn unknown_object_in_constraint_is_located() {
-    assert_error_at("unknown-object", &replace("objects = [\"cloth\"]", "objects = [\"clot\"]"), 15, "no object named `clot`");
+    assert_error_at(
+        "unknown-object",
+        &replace("objects = [\"cloth\"]", "objects = [\"clot\"]"),
+        15,
+        "no object named `clot`",
+    );
 }
 
 #[test]
@@ -142,5 +191,8 @@ fn obj_mesh_loads_relative_to_the_scene() {
     let scene = nucleus_core::Scene::load(Path::new(&scene_path)).unwrap();
     let sim = nucleus_core::Simulation::build(&scene, &registry(&[plugin_dir()])).unwrap();
     assert_eq!(sim.particles.len(), 4);
-    assert_eq!(sim.groups[0].len, 5, "two triangles share one edge: 5 edges");
+    assert_eq!(
+        sim.groups[0].len, 5,
+        "two triangles share one edge: 5 edges"
+    );
 }

@@ -8,7 +8,14 @@ use nucleus_tests::*;
 fn run_once(tag: &str, scene: &str, threads: &str) -> std::path::PathBuf {
     let out = temp_dir(tag);
     let status = Command::new(host_bin())
-        .args(["run", scene, "--quiet", "--frames", "30", "--no-default-plugins"])
+        .args([
+            "run",
+            scene,
+            "--quiet",
+            "--frames",
+            "30",
+            "--no-default-plugins",
+        ])
         .args(["--plugins", plugin_dir().to_str().unwrap()])
         .args(["--out", out.to_str().unwrap()])
         .env("RAYON_NUM_THREADS", threads)
@@ -55,16 +62,19 @@ fn two_runs_of_the_default_scene_are_bit_identical() {
 
 #[test]
 fn in_process_runs_match_to_the_bit() {
-    let text = std::fs::read_to_string(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../scenes/chain.toml"
-    ))
-    .unwrap();
+    let text =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/chain.toml"))
+            .unwrap();
     let bits = |mut sim: nucleus_core::Simulation| -> Vec<u64> {
         for _ in 0..20 {
             sim.step_frame().unwrap();
         }
-        sim.particles.x.iter().flatten().map(|c| c.to_bits()).collect()
+        sim.particles
+            .x
+            .iter()
+            .flatten()
+            .map(|c| c.to_bits())
+            .collect()
     };
     let a = bits(simulation(&text, &[]));
     let b = bits(simulation(&text, &[]));

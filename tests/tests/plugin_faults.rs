@@ -38,9 +38,19 @@ fn incompatible_sdk_layout_is_refused_with_a_summary() {
     assert_eq!(reg.refused.len(), 1, "{:?}", reg.refused);
     let cause = &reg.refused[0].cause;
     assert!(cause.contains("incompatible plugin ABI"), "{cause}");
-    assert!(cause.contains("expected PluginMod, found OldPluginMod"), "{cause}");
-    assert!(cause.lines().count() <= 3, "the layout report must be summarised: {cause}");
-    assert!(cause.len() < 2000, "summary too long: {} chars", cause.len());
+    assert!(
+        cause.contains("expected PluginMod, found OldPluginMod"),
+        "{cause}"
+    );
+    assert!(
+        cause.lines().count() <= 3,
+        "the layout report must be summarised: {cause}"
+    );
+    assert!(
+        cause.len() < 2000,
+        "summary too long: {} chars",
+        cause.len()
+    );
     // A scene asking for its kind fails and names the refused file.
     let scene = scene(&with_kind("old_kind", "{}"));
     let err = Simulation::build(&scene, &reg).err().expect("must fail");
@@ -58,7 +68,10 @@ fn non_library_file_is_skipped_with_a_warning() {
     assert_eq!(reg.plugins.len(), 1);
     assert_eq!(reg.warnings.len(), 2, "{:?}", reg.warnings);
     assert!(reg.warnings.iter().any(|w| w.contains("notes.txt")));
-    assert!(reg.warnings.iter().any(|w| w.contains("fake") && w.contains("not a loadable library")));
+    assert!(reg
+        .warnings
+        .iter()
+        .any(|w| w.contains("fake") && w.contains("not a loadable library")));
 }
 
 #[test]
@@ -69,14 +82,24 @@ fn duplicate_kind_names_both_files() {
     let dups = reg.duplicate_kinds();
     assert_eq!(dups.len(), 1);
     let msg = dups[0].to_string();
-    assert!(msg.contains(a.to_str().unwrap()) && msg.contains(b.to_str().unwrap()), "{msg}");
-    let err = Simulation::build(&scene(CLOTH), &reg).err().expect("ambiguous kind");
-    assert!(matches!(err, BuildError::Plugin { ref error, .. } if matches!(**error, PluginLoadError::DuplicateKind { .. })));
+    assert!(
+        msg.contains(a.to_str().unwrap()) && msg.contains(b.to_str().unwrap()),
+        "{msg}"
+    );
+    let err = Simulation::build(&scene(CLOTH), &reg)
+        .err()
+        .expect("ambiguous kind");
+    assert!(
+        matches!(err, BuildError::Plugin { ref error, .. } if matches!(**error, PluginLoadError::DuplicateKind { .. }))
+    );
 }
 
 #[test]
 fn panic_in_project_names_plugin_and_group_and_stops() {
-    let mut sim = simulation(&with_kind("panic_in_project", "{ at = 0.02 }"), &[fixture("faulty")]);
+    let mut sim = simulation(
+        &with_kind("panic_in_project", "{ at = 0.02 }"),
+        &[fixture("faulty")],
+    );
     let mut frames_ok = 0;
     let err = loop {
         match sim.step_frame() {
@@ -88,7 +111,10 @@ fn panic_in_project_names_plugin_and_group_and_stops() {
     assert_eq!(frames_ok, 1, "fault at t = 0.02 s fires in frame 2");
     let msg = err.to_string();
     assert!(matches!(err, StepError::Plugin { .. }), "{msg}");
-    assert!(msg.contains("fixture-faulty") && msg.contains("my_panic_in_project"), "{msg}");
+    assert!(
+        msg.contains("fixture-faulty") && msg.contains("my_panic_in_project"),
+        "{msg}"
+    );
     assert!(msg.contains("deliberate panic in project"), "{msg}");
     // The group is poisoned: calling it again gives an error, never undefined behaviour.
     let again = sim.step_frame().unwrap_err().to_string();
@@ -97,21 +123,33 @@ fn panic_in_project_names_plugin_and_group_and_stops() {
 
 #[test]
 fn panic_in_factory_is_an_error_naming_the_group() {
-    let reg = registry(&[plugin_dir(), plugin_dir_with("factory", &[fixture("faulty")])]);
+    let reg = registry(&[
+        plugin_dir(),
+        plugin_dir_with("factory", &[fixture("faulty")]),
+    ]);
     let err = Simulation::build(&scene(&with_kind("panic_in_factory", "{}")), &reg)
         .err()
         .expect("must fail");
     let msg = err.to_string();
-    assert!(msg.contains("my_panic_in_factory") && msg.contains("deliberate panic in factory"), "{msg}");
+    assert!(
+        msg.contains("my_panic_in_factory") && msg.contains("deliberate panic in factory"),
+        "{msg}"
+    );
 }
 
 #[test]
 fn nan_writer_is_named_and_state_check_stops_the_run() {
-    let mut sim = simulation(&with_kind("write_nan", "{ at = 0.0 }"), &[fixture("faulty")]);
+    let mut sim = simulation(
+        &with_kind("write_nan", "{ at = 0.0 }"),
+        &[fixture("faulty")],
+    );
     let err = sim.step_frame().unwrap_err();
     let msg = err.to_string();
     assert!(matches!(err, StepError::NonFinite { .. }), "{msg}");
-    assert!(msg.contains("fixture-faulty") && msg.contains("my_write_nan") && msg.contains("position"), "{msg}");
+    assert!(
+        msg.contains("fixture-faulty") && msg.contains("my_write_nan") && msg.contains("position"),
+        "{msg}"
+    );
 }
 
 #[test]
@@ -121,7 +159,10 @@ fn factory_rejecting_a_parameter_names_it() {
         .err()
         .expect("must fail");
     let msg = err.to_string();
-    assert!(msg.contains("`level`") && msg.contains("at most 3"), "{msg}");
+    assert!(
+        msg.contains("`level`") && msg.contains("at most 3"),
+        "{msg}"
+    );
     // The SDK's own validation names unknown and out-of-range parameters before the factory.
     let err = Simulation::build(&scene(&with_kind("picky", "{ levle = 1 }")), &reg)
         .err()
@@ -137,15 +178,32 @@ fn host_run_with_panicking_plugin_exits_nonzero_and_marks_output_failed() {
     let extra = plugin_dir_with("host-panic-plugins", &[fixture("faulty")]);
     let out = dir.join("out");
     let res = Command::new(host_bin())
-        .args(["run", scene_path.to_str().unwrap(), "--quiet", "--out", out.to_str().unwrap()])
-        .args(["--plugins", plugin_dir().to_str().unwrap(), "--plugins", extra.to_str().unwrap()])
+        .args([
+            "run",
+            scene_path.to_str().unwrap(),
+            "--quiet",
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .args([
+            "--plugins",
+            plugin_dir().to_str().unwrap(),
+            "--plugins",
+            extra.to_str().unwrap(),
+        ])
         .output()
         .unwrap();
     assert_eq!(res.status.code(), Some(1));
     let stderr = String::from_utf8_lossy(&res.stderr);
     let last = stderr.lines().last().unwrap_or_default();
-    assert!(last.starts_with("error: ") && last.contains("my_panic_in_project"), "{stderr}");
-    assert!(!out.join("stats.csv").exists(), "a failed run must not claim completeness");
+    assert!(
+        last.starts_with("error: ") && last.contains("my_panic_in_project"),
+        "{stderr}"
+    );
+    assert!(
+        !out.join("stats.csv").exists(),
+        "a failed run must not claim completeness"
+    );
     let run_json = std::fs::read_to_string(out.join("run.json")).unwrap();
     assert!(run_json.contains("\"failed\""), "{run_json}");
     // Frames written before the fault are whole OBJ files.
