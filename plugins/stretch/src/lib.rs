@@ -1,1 +1,126 @@
+//! # `stretch` — the paper's type-1 constraint
+//!
+//! One kind, `stretch`: an XPBD distance constraint on **every edge** of the objects the group
+//! is applied to — curve edges, and the edges of triangles and tetrahedra alike (the scene
+//! view lists every 1-simplex). Stretch and compression are resisted separately, as in Maya's
+//! nCloth: cloth buckles rather than compresses.
+//!
+//! ## The constraint
+//!
+//! For an edge `(i, j)` with rest length `l` (the scene's rest-shape length times
+//! `rest_length_scale`):
+//!
+//! ```text
+//! C(x)   = |xj − xi| − l                    (m; > 0 stretched, < 0 compressed)
+//! ∇xj C  = n = (xj − xi) / |xj − xi|,   ∇xi C = −n,   so Σ wₖ|∇ₖC|² = wi + wj
+//! ```
+//!
+//! `n` is undefined when the particles coincide: an edge shorter than
+//! [`distance::MIN_LENGTH`] (1e-12 m) is skipped for that pass, never divided by zero. A zero
+//! rest length is allowed and pulls the two particles together.
+//!
+//! ## The XPBD step (Macklin, Müller, Chentanez 2016)
+//!
+//! With the substep `h`, the compliance `α` chosen by the sign of `C` (`compliance` when
+//! `C ≥ 0`, `compression_compliance` when `C < 0`; both in m/N) and `α̃ = α/h²`:
+//!
+//! ```text
+//! Δλ = (−C − α̃λ) / (wi + wj + α̃)
+//! Δxi = −wi n Δλ,   Δxj = +wj n Δλ,   λ ← λ + Δλ
+//! ```
+//!
+//! computed by [`nucleus_sdk::xpbd::delta_lambda`]. `α = 0` is a hard constraint, solved
+//! exactly in one step for an isolated edge. Both corrections lie along the edge and are
+//! weighted by the inverse masses, so every step conserves linear and angular momentum, and a
+//! particle with inverse mass 0 never moves. The two compliances make the force a continuous,
+//! monotone, piecewise-linear function of `C`, so the iteration stays well posed when an edge
+//! crosses its rest length between passes.
+//!
+//! **Units.** `λ` is in N·s²: `λ/h²` is the edge's force over the substep (N, negative in
+//! tension) and `λ/h` its impulse (N·s).
+//!
+//! **λ is accumulated over the passes of a substep and reset to 0 in `begin_substep`.** Each
+//! substep solves the implicit equations `M(x − x̃) = ∇Cᵀλ`, `C(x) + α̃λ = 0` by Newton steps,
+//! and `λ` is the *total* multiplier applied so far in the substep: at its start the positions
+//! are the prediction `x̃`, to which no constraint force has been applied, so `λ = 0`. Each
+//! pass adds an increment. Carrying `λ` into the next substep would count a force that the
+//! new prediction never received; resetting it every *pass* instead (plain PBD) would apply
+//! the full spring force once per pass, so an edge would stiffen with the pass count. With
+//! the accumulation, an isolated compliant edge is unchanged by extra passes, and the
+//! stiffness depends neither on `h` nor on the group's importance.
+//!
+//! ## Damping (optional)
+//!
+//! `damping` is the coefficient `c` (N·s/m) of a linear damper in parallel with each edge's
+//! spring `k = 1/α`: the edge force becomes `−k·C − c·dC/dt`, which resists changes of the
+//! edge's length only (no drag on rigid motion). Macklin et al. 2016 (§3.5, eq. 26) solve it
+//! in the same step with `γ = α·c/h`, `dC/dt ≈ ∇C·(x − x0)/h`:
+//!
+//! ```text
+//! Δλ = (−C − α̃λ − γ ∇C·(x − x0)) / ((1 + γ)(wi + wj) + α̃)
+//! ```
+//!
+//! For one pass on an isolated edge this is exactly the backward-Euler step of the spring and
+//! damper (a unit test checks it). A hard edge (`α = 0`) has no spring to damp: `γ = 0`.
+//!
+//! ## Order of the projection
+//!
+//! `project` is plain sequential Gauss-Seidel over the batch in its index order: deterministic,
+//! and every edge sees the corrections of the edges before it. The batch is built in a fixed
+//! order in which consecutive edges share no particle: the edges are coloured greedily and
+//! listed colour by colour (each colour in the scene's order). Edges of one colour are
+//! independent, so their relative order does not change the result, and the processor can
+//! overlap the square roots and divisions of consecutive edges instead of waiting for each
+//! position write. On a 128 × 128 cloth this halves the time of a pass; the residual after a
+//! fixed number of passes is a little higher than in the scene's order in some scenes, and
+//! lower at equal time. The colours are also the independent sets a threaded projection needs.
+//!
+//! ## Residual
+//!
+//! The strain `|l − l0| / l0` of each edge (dimensionless; `l` its current length, `l0` its
+//! rest length); for a zero rest length, where strain is undefined, the length `l` itself
+//! (m) — the distance still to close. `energy` is `Σ ½ C²/α` over the edges whose active
+//! compliance is positive (J); hard edges store none.
+//!
+//! ## Scheduling defaults
+//!
+//! * **Order 0.** Stretch is the structure everything else acts on; kinds with a larger order
+//!   (bend, attachments, collisions) run after it within each column of the schedule and so
+//!   have the last word on the positions.
+//! * **Importance 1** (one pass per substep). XPBD's stiffness does not depend on the pass
+//!   count, and many substeps of one pass converge better per unit of work than few substeps
+//!   of many passes (Macklin et al. 2019, "Small steps in physics simulation"). A hard edge is
+//!   only exactly satisfied in the limit of passes: raise the importance (or the substeps)
+//!   for cloth that must not stretch at all.
 
+pub mod distance;
+pub mod group;
+
+#[cfg(test)]
+mod tests;
+
+pub use distance::{distance_constraint, project_distance, Correction, EdgeMaterial};
+pub use group::{StretchGroup, StretchParams};
+
+use nucleus_sdk::KindSpec;
+
+/// The kinds this plugin provides: `stretch`.
+pub fn kinds() -> Vec<KindSpec> {
+    vec![KindSpec {
+        name: "stretch",
+        doc: "XPBD distance constraint C = |xj - xi| - l on every edge of the target objects \
+              (curves, and the edges of triangles and tetrahedra), with separate compliances \
+              for stretch and compression and an optional damper along each edge.",
+        default_order: 0,
+        default_importance: 1,
+        residual_unit: "strain",
+        params: StretchParams::specs(),
+        factory: group::build,
+    }]
+}
+
+nucleus_sdk::export_plugin!(nucleus_sdk::PluginDef {
+    name: "stretch",
+    version: env!("CARGO_PKG_VERSION"),
+    kinds,
+});

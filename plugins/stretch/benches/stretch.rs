@@ -1,0 +1,139 @@
+//! The hot loop: one `project` pass of the `stretch` group over every edge of a 128 × 128
+//! cloth (48,641 distance constraints), called through the ABI trait object exactly as the
+//! host calls it. Criterion reports constraints per second; ns per constraint is its inverse.
+
+use std::time::Duration;
+
+use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
+use nucleus_sdk::abi_stable::std_types::{RSlice, RSliceMut, RStr};
+use nucleus_sdk::prelude::*;
+use nucleus_sdk::GroupBox;
+
+/// Vertices per side.
+const N: u32 = 128;
+
+struct Cloth {
+    rest: Vec<[f64; 3]>,
+    inv_mass: Vec<f64>,
+    edges: Vec<[u32; 2]>,
+    triangles: Vec<[u32; 3]>,
+}
+
+/// A 1 m square of N × N particles, each quad split into two triangles, with every edge of
+/// the triangles (2·N·(N−1) axis-aligned edges and (N−1)² diagonals).
+fn cloth() -> Cloth {
+    let spacing = 1.0 / (N - 1) as f64;
+    let rest = (0..N * N)
+        .map(|k| [(k % N) as f64 * spacing, (k / N) as f64 * spacing, 0.0])
+        .collect();
+    let mut triangles = Vec::new();
+    for r in 0..N - 1 {
+        for c in 0..N - 1 {
+            let a = r * N + c;
+            triangles.push([a, a + 1, a + N + 1]);
+            triangles.push([a, a + N + 1, a + N]);
+        }
+    }
+    let mut edges: Vec<[u32; 2]> = triangles
+        .iter()
+        .flat_map(|t| [[t[0], t[1]], [t[1], t[2]], [t[2], t[0]]])
+        .map(|[a, b]| [a.min(b), a.max(b)])
+        .collect();
+    edges.sort_unstable();
+    edges.dedup();
+    Cloth {
+        rest,
+        inv_mass: vec![1.0; (N * N) as usize],
+        edges,
+        triangles,
+    }
+}
+
+fn group(cloth: &Cloth, params: &str) -> GroupBox {
+    let objects = [ObjectView {
+        name: RStr::from_str("cloth"),
+        first: 0,
+        count: N * N,
+        points: RSlice::EMPTY,
+        edges: RSlice::from_slice(&cloth.edges),
+        edge_triangle_count: RSlice::EMPTY,
+        triangles: RSlice::from_slice(&cloth.triangles),
+        tets: RSlice::EMPTY,
+        triangle_pairs: RSlice::EMPTY,
+        edge_pairs: RSlice::EMPTY,
+        boundary_edges: RSlice::EMPTY,
+        closed: 0,
+        manifold: 1,
+    }];
+    let scene = SceneView {
+        objects: RSlice::from_slice(&objects),
+        targets: RSlice::from_slice(&[0]),
+        rest: RSlice::from_slice(&cloth.rest),
+        inv_mass: RSlice::from_slice(&cloth.inv_mass),
+        attributes: RSlice::EMPTY,
+        gravity: [0.0, 0.0, -9.81],
+        frame_dt: 1.0 / 24.0,
+        substeps: 10,
+    };
+    match nucleus_stretch::nucleus_plugin().create_group("stretch", params, &scene) {
+        Ok(g) => g,
+        Err(e) => panic!("cannot build the stretch group: {e}"),
+    }
+}
+
+fn project_pass(c: &mut Criterion) {
+    let cloth = cloth();
+    // Stretched by 5 % with a ripple in z, so every constraint does real work.
+    let mut x: Vec<[f64; 3]> = cloth
+        .rest
+        .iter()
+        .map(|p| [1.05 * p[0], 1.05 * p[1], 0.01 * (20.0 * p[0]).sin()])
+        .collect();
+    let x0 = cloth.rest.clone();
+    let mut v = vec![[0.0; 3]; x.len()];
+    let object = vec![0u32; x.len()];
+    let flags = vec![0u32; x.len()];
+
+    let mut bench = c.benchmark_group("stretch");
+    bench
+        .sample_size(20)
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(2));
+    for (name, params) in [
+        ("project_hard", "{}"),
+        (
+            "project_soft_damped",
+            r#"{"compliance": 1e-6, "compression_compliance": 1e-3, "damping": 1}"#,
+        ),
+    ] {
+        let mut g = group(&cloth, params);
+        bench.throughput(Throughput::Elements(g.constraint_count()));
+        let mut ctx = SolveContext {
+            x: RSliceMut::from_mut_slice(&mut x),
+            v: RSliceMut::from_mut_slice(&mut v),
+            x0: RSlice::from_slice(&x0),
+            inv_mass: RSlice::from_slice(&cloth.inv_mass),
+            object: RSlice::from_slice(&object),
+            flags: RSlice::from_slice(&flags),
+            attributes: RSlice::EMPTY,
+            h: 1.0 / 240.0,
+            time: 0.0,
+            gravity: [0.0, 0.0, -9.81],
+            frame: 0,
+            substep: 0,
+            substeps: 10,
+            pass: 0,
+            passes: 1,
+        };
+        if let Err(e) = g.begin_substep(&mut ctx).into_result() {
+            panic!("begin_substep failed: {e}");
+        }
+        bench.bench_function(name, |b| {
+            b.iter(|| black_box(g.project(black_box(&mut ctx))).is_ok())
+        });
+    }
+    bench.finish();
+}
+
+criterion_group!(benches, project_pass);
+criterion_main!(benches);

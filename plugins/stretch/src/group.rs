@@ -1,0 +1,386 @@
+//! The `stretch` group: one SoA batch holding the distance constraint of every edge of the
+//! objects the group is applied to, projected Gauss-Seidel in index order.
+
+use nucleus_sdk::params::{self, ParamSpec};
+use nucleus_sdk::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::distance::{project_distance, EdgeMaterial};
+
+/// Smallest valid `rest_length_scale`: the scale must be positive, and a bound that prints
+/// as a plain number keeps the host's parameter tables and messages readable.
+pub const MIN_REST_LENGTH_SCALE: f64 = 1e-6;
+
+/// The parameters of the `stretch` kind, as written in a scene.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StretchParams {
+    /// Compliance when stretched, `C > 0` (m/N, ≥ 0). Default 0: inextensible.
+    pub compliance: f64,
+    /// Compliance when compressed, `C < 0` (m/N, ≥ 0). Default 0: incompressible. Set it high
+    /// to let cloth buckle instead of compressing.
+    pub compression_compliance: f64,
+    /// Rest length = scale × rest-shape length (dimensionless, ≥ 1e-6). Default 1.
+    pub rest_length_scale: f64,
+    /// Damper in parallel with each compliant edge (N·s/m, ≥ 0). Default 0: none.
+    pub damping: f64,
+}
+
+impl Default for StretchParams {
+    fn default() -> Self {
+        Self {
+            compliance: 0.0,
+            compression_compliance: 0.0,
+            rest_length_scale: 1.0,
+            damping: 0.0,
+        }
+    }
+}
+
+impl StretchParams {
+    /// The self-description of every parameter: name, doc, unit, default and valid range.
+    pub fn specs() -> Vec<ParamSpec> {
+        let d = Self::default();
+        vec![
+            ParamSpec::number("compliance", d.compliance)
+                .doc("compliance when stretched (inverse stiffness); 0 is inextensible")
+                .unit("m/N")
+                .range(0.0, f64::INFINITY),
+            ParamSpec::number("compression_compliance", d.compression_compliance)
+                .doc("compliance when compressed; set it high to let cloth buckle, 0 is incompressible")
+                .unit("m/N")
+                .range(0.0, f64::INFINITY),
+            ParamSpec::number("rest_length_scale", d.rest_length_scale)
+                .doc("rest length of each edge as a multiple of its length in the rest shape")
+                .range(MIN_REST_LENGTH_SCALE, f64::INFINITY),
+            ParamSpec::number("damping", d.damping)
+                .doc("damper in parallel with each compliant edge, resisting changes of its length; no effect when the compliance is 0")
+                .unit("N·s/m")
+                .range(0.0, f64::INFINITY),
+        ]
+    }
+
+    /// Checks the values against [`specs`](Self::specs); an error names the parameter.
+    pub fn validate(&self) -> Result<(), PluginError> {
+        let infos: Vec<_> = Self::specs().iter().map(ParamSpec::info).collect();
+        let value = nucleus_sdk::serde_json::to_value(self)
+            .map_err(|e| PluginError::failed(format!("cannot serialize parameters: {e}")))?;
+        params::validate(&value, &infos).map(|_| ())
+    }
+
+    /// The edge material these parameters describe.
+    pub fn material(&self) -> EdgeMaterial {
+        EdgeMaterial {
+            compliance: self.compliance,
+            compression_compliance: self.compression_compliance,
+            damping: self.damping,
+        }
+    }
+}
+
+/// All the distance constraints of one `stretch` group, struct-of-arrays.
+#[derive(Clone, Debug)]
+pub struct StretchGroup {
+    /// The two global particle indices of each edge.
+    ids: Vec<[u32; 2]>,
+    /// Rest length of each edge (m).
+    rest: Vec<f64>,
+    /// Multiplier of each edge accumulated over the passes of the current substep (N·s²).
+    lambda: Vec<f64>,
+    /// Compliances and damping, shared by the whole group.
+    material: EdgeMaterial,
+    /// Particle slices must hold more than this index (`None` for an empty group).
+    max_index: Option<u32>,
+}
+
+impl StretchGroup {
+    /// One constraint per edge of every target object of `scene`, with rest lengths from the
+    /// scene's rest positions. Edges whose two particles both have inverse mass 0 are dropped.
+    /// An object listed twice among the targets is used once. The batch is ordered so that
+    /// consecutive edges share no particle (see the [crate docs](crate#order-of-the-projection)).
+    ///
+    /// Errors: a parameter out of range (naming it); an edge outside its object's particle
+    /// range, joining a particle to itself, or with a non-finite rest length (naming the
+    /// object); a target index outside the scene.
+    pub fn new(params: &StretchParams, scene: &SceneView<'_>) -> Result<Self, PluginError> {
+        params.validate()?;
+        let objects = scene.objects.as_slice();
+        let rest_x = scene.rest_positions();
+        let inv_mass = scene.inv_mass.as_slice();
+        let particles = rest_x.len().min(inv_mass.len());
+
+        let mut used = vec![false; objects.len()];
+        let mut edge_count = 0;
+        for &t in scene.targets.as_slice() {
+            let object = objects.get(t as usize).ok_or_else(|| {
+                PluginError::failed(format!(
+                    "target {t} is not an object of the scene ({} objects)",
+                    objects.len()
+                ))
+            })?;
+            edge_count += object.edges.len();
+        }
+
+        let mut group = Self {
+            ids: Vec::with_capacity(edge_count),
+            rest: Vec::with_capacity(edge_count),
+            lambda: Vec::new(),
+            material: params.material(),
+            max_index: None,
+        };
+        for &t in scene.targets.as_slice() {
+            let t = t as usize;
+            if std::mem::replace(&mut used[t], true) {
+                continue;
+            }
+            let object = &objects[t];
+            // In usize: `first + count` may not fit the u32 of a corrupt view.
+            let range = object.first as usize..object.first as usize + object.count as usize;
+            let bad = |message: String| PluginError::bad_object(object.name.as_str(), message);
+            for &[i, j] in object.edges.as_slice() {
+                let (iu, ju) = (i as usize, j as usize);
+                if i == j {
+                    return Err(bad(format!("edge ({i}, {j}) joins a particle to itself")));
+                }
+                if !range.contains(&iu) || !range.contains(&ju) || iu.max(ju) >= particles {
+                    return Err(bad(format!(
+                        "edge ({i}, {j}) is outside the object's particles {}..{} \
+                         (the scene has {particles})",
+                        range.start, range.end
+                    )));
+                }
+                if inv_mass[iu] == 0.0 && inv_mass[ju] == 0.0 {
+                    continue;
+                }
+                let rest = params.rest_length_scale * (rest_x[ju] - rest_x[iu]).length();
+                if !rest.is_finite() {
+                    return Err(bad(format!("edge ({i}, {j}) has a non-finite rest length")));
+                }
+                group.ids.push([i, j]);
+                group.rest.push(rest);
+                group.max_index = group.max_index.max(Some(i.max(j)));
+            }
+        }
+        let order = independent_sets_order(&group.ids, particles);
+        group.ids = order.iter().map(|&k| group.ids[k]).collect();
+        group.rest = order.iter().map(|&k| group.rest[k]).collect();
+        group.lambda = vec![0.0; group.ids.len()];
+        Ok(group)
+    }
+
+    /// The edges, as global particle indices.
+    pub fn ids(&self) -> &[[u32; 2]] {
+        &self.ids
+    }
+
+    /// The rest length of each edge (m).
+    pub fn rest_lengths(&self) -> &[f64] {
+        &self.rest
+    }
+
+    /// The multiplier of each edge accumulated in the current substep (N·s²); `λ/h²` is the
+    /// edge's force (N), negative in tension.
+    pub fn lambdas(&self) -> &[f64] {
+        &self.lambda
+    }
+
+    /// The compliances and damping of the group.
+    pub fn material(&self) -> &EdgeMaterial {
+        &self.material
+    }
+
+    /// Refuses particle slices too short for the group's indices.
+    fn check_particles(&self, len: usize) -> Result<(), PluginError> {
+        match self.max_index {
+            Some(m) if m as usize >= len => Err(PluginError::failed(format!(
+                "the group refers to particle {m} but the state has {len} particles"
+            ))),
+            _ => Ok(()),
+        }
+    }
+}
+
+impl ConstraintGroup for StretchGroup {
+    fn stages(&self) -> Stages {
+        Stages::BEGIN_SUBSTEP | Stages::PROJECT
+    }
+
+    fn len(&self) -> usize {
+        self.ids.len()
+    }
+
+    /// Resets every λ to 0: XPBD's λ is the total multiplier of the substep, and the
+    /// positions just predicted carry none of it yet.
+    fn begin_substep(&mut self, _ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
+        self.lambda.fill(0.0);
+        Ok(())
+    }
+
+    /// One Gauss-Seidel pass over the edges in index order: deterministic, no allocation.
+    fn project(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
+        let h = ctx.h;
+        if !h.is_finite() || h <= 0.0 {
+            return Err(PluginError::failed(format!(
+                "the substep length must be positive, got {h}"
+            )));
+        }
+        let p = ctx.particles();
+        self.check_particles(p.x.len().min(p.x0.len()).min(p.inv_mass.len()))?;
+        let (x, x0, w) = (p.x, p.x0, p.inv_mass);
+        let damped = self.material.damping > 0.0;
+        let material = self.material;
+        for ((&[i, j], &rest), lambda) in self.ids.iter().zip(&self.rest).zip(&mut self.lambda) {
+            let (i, j) = (i as usize, j as usize);
+            let (xi, xj) = (x[i], x[j]);
+            let start = if damped { [x0[i], x0[j]] } else { [xi, xj] };
+            if let Some(c) =
+                project_distance([xi, xj], start, [w[i], w[j]], rest, &material, *lambda, h)
+            {
+                x[i] = xi + c.dxi;
+                x[j] = xj + c.dxj;
+                *lambda += c.delta_lambda;
+            }
+        }
+        Ok(())
+    }
+
+    /// Strain `|l − l0| / l0` of every edge (for `l0 = 0`, the length `l` itself, in m), and
+    /// the energy `Σ ½ C²/α` stored in the compliant edges (J).
+    fn residual(&self, ctx: &SolveContext<'_>) -> Residual {
+        let x = ctx.positions();
+        let mut out = Residual::default();
+        let mut sum_sq = 0.0;
+        for (&[i, j], &rest) in self.ids.iter().zip(&self.rest) {
+            let (Some(&xi), Some(&xj)) = (x.get(i as usize), x.get(j as usize)) else {
+                continue;
+            };
+            let len = (xj - xi).length();
+            let c = len - rest;
+            let strain = if rest > 0.0 { c.abs() / rest } else { len };
+            out.count += 1;
+            out.max = out.max.max(strain);
+            sum_sq += strain * strain;
+            let alpha = self.material.compliance_for(c);
+            if alpha > 0.0 {
+                out.energy += 0.5 * c * c / alpha;
+            }
+        }
+        if out.count > 0 {
+            out.rms = (sum_sq / out.count as f64).sqrt();
+        }
+        out
+    }
+}
+
+/// The colour of an edge of a particle that already has edges of all 64 colours: the last
+/// colour, in which edges may share particles.
+const OVERFLOW_COLOUR: usize = 64;
+
+/// Greedy colouring of the edges in their given order: each edge takes the smallest colour
+/// no edge at either of its particles has yet, so the edges of one colour (below
+/// [`OVERFLOW_COLOUR`]) share no particle.
+fn edge_colours(ids: &[[u32; 2]], particles: usize) -> Vec<usize> {
+    let mut used = vec![0u64; particles];
+    ids.iter()
+        .map(|&[i, j]| {
+            let (i, j) = (i as usize, j as usize);
+            let free = !(used[i] | used[j]);
+            if free == 0 {
+                return OVERFLOW_COLOUR;
+            }
+            let colour = free.trailing_zeros() as usize;
+            used[i] |= 1 << colour;
+            used[j] |= 1 << colour;
+            colour
+        })
+        .collect()
+}
+
+/// A fixed order of the edges in which runs of consecutive edges share no particle: colour by
+/// colour ([`edge_colours`]), each colour in the given order. Deterministic; the projection
+/// stays plain sequential Gauss-Seidel over it, but consecutive edges no longer wait for each
+/// other's position writes, so the processor overlaps their square roots and divisions.
+fn independent_sets_order(ids: &[[u32; 2]], particles: usize) -> Vec<usize> {
+    let colours = edge_colours(ids, particles);
+    let mut order: Vec<usize> = (0..ids.len()).collect();
+    order.sort_by_key(|&k| colours[k]); // stable: the given order within a colour
+    order
+}
+
+/// The factory of the `stretch` kind.
+pub(crate) fn build(
+    params_json: &str,
+    scene: &SceneView<'_>,
+) -> Result<Box<dyn ConstraintGroup>, PluginError> {
+    let params: StretchParams = params::parse(params_json)?;
+    Ok(Box::new(StretchGroup::new(&params, scene)?))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The edges of a `n × n` vertex grid with one diagonal per quad, sorted as a scene
+    /// lists them.
+    fn grid_edges(n: u32) -> Vec<[u32; 2]> {
+        let mut ids = Vec::new();
+        for r in 0..n {
+            for c in 0..n {
+                let a = r * n + c;
+                if c + 1 < n {
+                    ids.push([a, a + 1]);
+                }
+                if r + 1 < n {
+                    ids.push([a, a + n]);
+                }
+                if c + 1 < n && r + 1 < n {
+                    ids.push([a, a + n + 1]);
+                }
+            }
+        }
+        ids.sort_unstable();
+        ids
+    }
+
+    #[test]
+    fn edges_of_one_colour_share_no_particle() {
+        let ids = grid_edges(6);
+        let colours = edge_colours(&ids, 36);
+        assert!(colours.iter().all(|&c| c < OVERFLOW_COLOUR));
+        for (a, &ca) in ids.iter().zip(&colours) {
+            for (b, &cb) in ids.iter().zip(&colours) {
+                if a != b && ca == cb {
+                    assert!(!a.iter().any(|p| b.contains(p)), "{a:?} and {b:?}");
+                }
+            }
+        }
+        // Greedy colouring needs at most 2·(max valence − 1) + 1 colours (valence 6 here).
+        assert!(colours.iter().max().is_some_and(|&c| c < 11));
+    }
+
+    #[test]
+    fn order_lists_colours_in_turn_keeping_the_given_order_within_each() {
+        let ids = grid_edges(5);
+        let colours = edge_colours(&ids, 25);
+        let order = independent_sets_order(&ids, 25);
+        let mut seen = order.clone();
+        seen.sort_unstable();
+        assert_eq!(seen, (0..ids.len()).collect::<Vec<_>>(), "a permutation");
+        for w in order.windows(2) {
+            let (a, b) = (w[0], w[1]);
+            assert!(colours[a] < colours[b] || (colours[a] == colours[b] && a < b));
+        }
+    }
+
+    #[test]
+    fn a_particle_with_more_than_64_colours_of_edges_overflows_safely() {
+        // A star: 70 edges at particle 0 need 70 colours; the last 6 share the overflow one.
+        let ids: Vec<[u32; 2]> = (1..=70).map(|k| [0, k]).collect();
+        let colours = edge_colours(&ids, 71);
+        assert_eq!(colours.iter().filter(|&&c| c == OVERFLOW_COLOUR).count(), 6);
+        assert_eq!(
+            independent_sets_order(&ids, 71),
+            (0..70).collect::<Vec<_>>()
+        );
+    }
+}

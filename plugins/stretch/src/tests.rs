@@ -1,0 +1,568 @@
+//! The `stretch` group through the SDK, in-process, exactly as the host drives it: created by
+//! `nucleus_plugin().create_group` from JSON parameters and a hand-built scene view, and
+//! called through the ABI trait object.
+
+use nucleus_sdk::abi_stable::std_types::{RSlice, RSliceMut, RStr};
+use nucleus_sdk::prelude::*;
+use nucleus_sdk::GroupBox;
+
+use crate::{nucleus_plugin, StretchGroup, StretchParams};
+
+const H: f64 = 1.0 / 240.0;
+
+/// One object: particles with rest positions and inverse masses, and its edges.
+struct Mesh {
+    rest: Vec<[f64; 3]>,
+    inv_mass: Vec<f64>,
+    edges: Vec<[u32; 2]>,
+    triangles: Vec<[u32; 3]>,
+}
+
+impl Mesh {
+    /// A flat square grid of `cells × cells` quads, each split into two triangles, with side
+    /// `size` (m) and unit masses; `edges` holds every edge of the triangles.
+    fn grid(cells: u32, size: f64) -> Self {
+        let n = cells + 1;
+        let rest = (0..n * n)
+            .map(|k| {
+                let (r, c) = (k / n, k % n);
+                [
+                    size * c as f64 / cells as f64,
+                    size * r as f64 / cells as f64,
+                    0.0,
+                ]
+            })
+            .collect();
+        let mut triangles = Vec::new();
+        for r in 0..cells {
+            for c in 0..cells {
+                let a = r * n + c;
+                triangles.push([a, a + 1, a + n + 1]);
+                triangles.push([a, a + n + 1, a + n]);
+            }
+        }
+        let mut edges: Vec<[u32; 2]> = triangles
+            .iter()
+            .flat_map(|t| [[t[0], t[1]], [t[1], t[2]], [t[2], t[0]]])
+            .map(|[a, b]| [a.min(b), a.max(b)])
+            .collect();
+        edges.sort_unstable();
+        edges.dedup();
+        Self {
+            rest,
+            inv_mass: vec![1.0; (n * n) as usize],
+            edges,
+            triangles,
+        }
+    }
+
+    /// Two particles joined by one edge.
+    fn pair(a: [f64; 3], b: [f64; 3]) -> Self {
+        Self {
+            rest: vec![a, b],
+            inv_mass: vec![1.0, 1.0],
+            edges: vec![[0, 1]],
+            triangles: Vec::new(),
+        }
+    }
+
+    fn object(&self) -> ObjectView<'_> {
+        ObjectView {
+            name: RStr::from_str("cloth"),
+            first: 0,
+            count: self.rest.len() as u32,
+            points: RSlice::EMPTY,
+            edges: RSlice::from_slice(&self.edges),
+            edge_triangle_count: RSlice::EMPTY,
+            triangles: RSlice::from_slice(&self.triangles),
+            tets: RSlice::EMPTY,
+            triangle_pairs: RSlice::EMPTY,
+            edge_pairs: RSlice::EMPTY,
+            boundary_edges: RSlice::EMPTY,
+            closed: 0,
+            manifold: 1,
+        }
+    }
+
+    /// Runs `f` on a scene view holding this mesh as object 0, targeted as `targets` says.
+    fn with_scene<R>(&self, targets: &[u32], f: impl FnOnce(&SceneView<'_>) -> R) -> R {
+        let objects = [self.object()];
+        let scene = SceneView {
+            objects: RSlice::from_slice(&objects),
+            targets: RSlice::from_slice(targets),
+            rest: RSlice::from_slice(&self.rest),
+            inv_mass: RSlice::from_slice(&self.inv_mass),
+            attributes: RSlice::EMPTY,
+            gravity: [0.0, 0.0, -9.81],
+            frame_dt: 1.0 / 24.0,
+            substeps: 10,
+        };
+        f(&scene)
+    }
+
+    /// The `stretch` group of this mesh, through the plugin's ABI entry.
+    fn group(&self, params: &str) -> Result<GroupBox, PluginError> {
+        self.with_scene(&[0], |scene| {
+            nucleus_plugin().create_group("stretch", params, scene)
+        })
+    }
+}
+
+/// The particle state the core would own.
+struct State {
+    x: Vec<[f64; 3]>,
+    v: Vec<[f64; 3]>,
+    x0: Vec<[f64; 3]>,
+    inv_mass: Vec<f64>,
+    object: Vec<u32>,
+    flags: Vec<u32>,
+}
+
+impl State {
+    fn new(mesh: &Mesh, x: Vec<[f64; 3]>) -> Self {
+        let n = x.len();
+        Self {
+            x0: x.clone(),
+            x,
+            v: vec![[0.0; 3]; n],
+            inv_mass: mesh.inv_mass.clone(),
+            object: vec![0; n],
+            flags: vec![0; n],
+        }
+    }
+
+    fn ctx(&mut self) -> SolveContext<'_> {
+        SolveContext {
+            x: RSliceMut::from_mut_slice(&mut self.x),
+            v: RSliceMut::from_mut_slice(&mut self.v),
+            x0: RSlice::from_slice(&self.x0),
+            inv_mass: RSlice::from_slice(&self.inv_mass),
+            object: RSlice::from_slice(&self.object),
+            flags: RSlice::from_slice(&self.flags),
+            attributes: RSlice::EMPTY,
+            h: H,
+            time: 0.0,
+            gravity: [0.0, 0.0, -9.81],
+            frame: 0,
+            substep: 0,
+            substeps: 10,
+            pass: 0,
+            passes: 1,
+        }
+    }
+
+    /// One substep as the core runs it: prediction, `begin_substep`, `passes` projections,
+    /// velocity update. No external force.
+    fn substep(&mut self, group: &mut GroupBox, passes: u32) {
+        self.x0.clone_from(&self.x);
+        for (x, v) in self.x.iter_mut().zip(&self.v) {
+            for k in 0..3 {
+                x[k] += H * v[k];
+            }
+        }
+        group
+            .begin_substep(&mut self.ctx())
+            .into_result()
+            .expect("begin");
+        for _ in 0..passes {
+            group
+                .project(&mut self.ctx())
+                .into_result()
+                .expect("project");
+        }
+        for ((v, x), x0) in self.v.iter_mut().zip(&self.x).zip(&self.x0) {
+            for k in 0..3 {
+                v[k] = (x[k] - x0[k]) / H;
+            }
+        }
+    }
+
+    fn residual(&mut self, group: &GroupBox) -> Residual {
+        group.residual(&self.ctx()).into_result().expect("residual")
+    }
+
+    fn all_finite(&self) -> bool {
+        self.x.iter().flatten().all(|c| c.is_finite())
+    }
+}
+
+/// The rest shape stretched by `factor` in x and y, with a deterministic wobble in z.
+fn stretched(mesh: &Mesh, factor: f64) -> Vec<[f64; 3]> {
+    mesh.rest
+        .iter()
+        .enumerate()
+        .map(|(k, p)| {
+            [
+                p[0] * factor,
+                p[1] * factor,
+                0.05 * ((k * 7 % 5) as f64 - 2.0),
+            ]
+        })
+        .collect()
+}
+
+fn bad_parameter(mesh: &Mesh, params: &str) -> PluginError {
+    match mesh.group(params) {
+        Ok(_) => panic!("{params} was accepted"),
+        Err(e) => e,
+    }
+}
+
+#[test]
+fn kind_describes_itself() {
+    let info = nucleus_plugin().info();
+    assert_eq!(info.name.as_str(), "stretch");
+    let [kind] = info.kinds.as_slice() else {
+        panic!("one kind expected");
+    };
+    assert_eq!(kind.name.as_str(), "stretch");
+    assert_eq!(kind.default_order, 0);
+    assert_eq!(kind.default_importance, 1);
+    assert_eq!(kind.residual_unit.as_str(), "strain");
+    let names: Vec<&str> = kind.params.iter().map(|p| p.name.as_str()).collect();
+    assert_eq!(
+        names,
+        [
+            "compliance",
+            "compression_compliance",
+            "rest_length_scale",
+            "damping"
+        ]
+    );
+    for p in kind.params.iter() {
+        assert!(!p.doc.is_empty(), "{} has no doc", p.name);
+    }
+    let default = |name: &str| {
+        kind.params
+            .iter()
+            .find(|p| p.name.as_str() == name)
+            .map(|p| p.default.to_string())
+    };
+    assert_eq!(default("compliance").as_deref(), Some("0.0"));
+    assert_eq!(default("rest_length_scale").as_deref(), Some("1.0"));
+}
+
+#[test]
+fn grid_has_a_constraint_per_edge() {
+    let mesh = Mesh::grid(2, 1.0);
+    // 3×3 vertices: 6 + 6 axis-aligned edges and 4 diagonals.
+    assert_eq!(mesh.edges.len(), 16);
+    let group = mesh.group("{}").expect("group");
+    assert_eq!(group.constraint_count(), 16);
+    assert_eq!(group.stages(), Stages::BEGIN_SUBSTEP | Stages::PROJECT);
+}
+
+#[test]
+fn residual_is_zero_at_rest() {
+    let mesh = Mesh::grid(2, 1.0);
+    let group = mesh.group("{}").expect("group");
+    let mut state = State::new(&mesh, mesh.rest.clone());
+    let r = state.residual(&group);
+    assert_eq!(r.count, 16);
+    assert!(r.max < 1e-15 && r.rms < 1e-15, "{r:?}");
+    assert_eq!(r.energy, 0.0);
+}
+
+#[test]
+fn residual_of_a_stretched_grid_falls_with_passes() {
+    let mesh = Mesh::grid(2, 1.0);
+    let mut group = mesh.group("{}").expect("group");
+    let mut state = State::new(&mesh, stretched(&mesh, 1.3));
+    let before = state.residual(&group);
+    assert!(before.max > 0.25, "{before:?}");
+    group
+        .begin_substep(&mut state.ctx())
+        .into_result()
+        .expect("begin");
+    let mut last = before;
+    for pass in 0..30 {
+        group
+            .project(&mut state.ctx())
+            .into_result()
+            .expect("project");
+        let now = state.residual(&group);
+        assert!(now.rms < last.rms, "pass {pass}: {now:?} after {last:?}");
+        last = now;
+    }
+    // Gauss-Seidel on hard constraints converges linearly; 30 passes take off > 99 %.
+    assert!(last.max < 0.01 * before.max, "{last:?}");
+    assert!(state.all_finite());
+}
+
+#[test]
+fn negative_compliance_is_rejected_naming_it() {
+    let mesh = Mesh::grid(2, 1.0);
+    let e = bad_parameter(&mesh, r#"{"compliance": -1}"#);
+    assert_eq!(e.code, PluginError::BAD_PARAMETER);
+    assert_eq!(e.subject.as_str(), "compliance");
+    let e = bad_parameter(&mesh, r#"{"compression_compliance": -1e-3}"#);
+    assert_eq!(e.subject.as_str(), "compression_compliance");
+    let e = bad_parameter(&mesh, r#"{"damping": "lots"}"#);
+    assert_eq!(e.subject.as_str(), "damping");
+}
+
+#[test]
+fn zero_rest_length_scale_is_rejected_naming_it() {
+    let mesh = Mesh::grid(2, 1.0);
+    let e = bad_parameter(&mesh, r#"{"rest_length_scale": 0}"#);
+    assert_eq!(e.code, PluginError::BAD_PARAMETER);
+    assert_eq!(e.subject.as_str(), "rest_length_scale");
+}
+
+#[test]
+fn unknown_parameter_is_rejected_naming_it() {
+    let mesh = Mesh::grid(2, 1.0);
+    let e = bad_parameter(&mesh, r#"{"stiffness": 100}"#);
+    assert_eq!(e.code, PluginError::BAD_PARAMETER);
+    assert_eq!(e.subject.as_str(), "stiffness");
+}
+
+#[test]
+fn parameters_given_in_rust_are_validated_too() {
+    let mesh = Mesh::grid(1, 1.0);
+    let params = StretchParams {
+        compression_compliance: f64::NAN,
+        ..StretchParams::default()
+    };
+    let e = mesh
+        .with_scene(&[0], |scene| StretchGroup::new(&params, scene))
+        .expect_err("NaN accepted");
+    assert_eq!(e.subject.as_str(), "compression_compliance");
+}
+
+#[test]
+fn rest_length_scale_scales_the_rest_lengths() {
+    let mesh = Mesh::grid(2, 1.0);
+    let group = mesh.group(r#"{"rest_length_scale": 0.5}"#).expect("group");
+    let mut state = State::new(&mesh, mesh.rest.clone());
+    // Every edge is at twice its rest length: strain 1.
+    let r = state.residual(&group);
+    assert!(
+        (r.max - 1.0).abs() < 1e-12 && (r.rms - 1.0).abs() < 1e-12,
+        "{r:?}"
+    );
+}
+
+#[test]
+fn edges_between_kinematic_particles_are_dropped() {
+    let mut mesh = Mesh::grid(2, 1.0);
+    mesh.inv_mass[0] = 0.0;
+    mesh.inv_mass[1] = 0.0;
+    let group = mesh.group("{}").expect("group");
+    assert_eq!(group.constraint_count(), 15);
+    mesh.inv_mass.fill(0.0);
+    assert_eq!(mesh.group("{}").expect("group").constraint_count(), 0);
+}
+
+#[test]
+fn kinematic_particles_do_not_move() {
+    let mut mesh = Mesh::grid(2, 1.0);
+    mesh.inv_mass[0] = 0.0;
+    mesh.inv_mass[2] = 0.0;
+    let mut group = mesh.group(r#"{"compliance": 1e-6}"#).expect("group");
+    let mut state = State::new(&mesh, stretched(&mesh, 1.5));
+    let pinned = [state.x[0], state.x[2]];
+    for _ in 0..10 {
+        state.substep(&mut group, 3);
+    }
+    assert_eq!([state.x[0], state.x[2]], pinned);
+    assert_ne!(state.x[1], stretched(&mesh, 1.5)[1]);
+}
+
+#[test]
+fn coincident_particles_produce_no_nan() {
+    let mesh = Mesh::grid(2, 1.0);
+    for params in ["{}", r#"{"compliance": 1e-3, "damping": 10}"#] {
+        let mut group = mesh.group(params).expect("group");
+        let mut state = State::new(&mesh, vec![[0.25, -0.5, 1.0]; mesh.rest.len()]);
+        for _ in 0..3 {
+            state.substep(&mut group, 2);
+        }
+        assert!(state.all_finite());
+        let r = state.residual(&group);
+        assert!(r.max.is_finite() && r.rms.is_finite() && r.energy.is_finite());
+        // All edges have zero length: strain 1, and nothing moved.
+        assert!((r.max - 1.0).abs() < 1e-15, "{r:?}");
+    }
+}
+
+#[test]
+fn zero_rest_length_pulls_points_together_and_reports_the_length() {
+    let mesh = Mesh::pair([0.0, 0.0, 1.0], [0.0, 0.0, 1.0]);
+    let mut group = mesh.group("{}").expect("group");
+    let mut state = State::new(&mesh, vec![[0.0, 0.0, 1.0], [0.3, 0.0, 1.0]]);
+    let r = state.residual(&group);
+    assert!((r.max - 0.3).abs() < 1e-15, "{r:?}");
+    group
+        .begin_substep(&mut state.ctx())
+        .into_result()
+        .expect("begin");
+    group
+        .project(&mut state.ctx())
+        .into_result()
+        .expect("project");
+    assert_eq!(state.x[0], state.x[1]);
+    assert_eq!(state.residual(&group).max, 0.0);
+}
+
+#[test]
+fn energy_is_half_c_squared_over_the_active_compliance() {
+    let mesh = Mesh::pair([0.0; 3], [1.0, 0.0, 0.0]);
+    let group = mesh
+        .group(r#"{"compliance": 1e-3, "compression_compliance": 2e-3}"#)
+        .expect("group");
+    let mut state = State::new(&mesh, vec![[0.0; 3], [1.1, 0.0, 0.0]]);
+    assert!((state.residual(&group).energy - 0.5 * 0.01 / 1e-3).abs() < 1e-9);
+    state.x[1][0] = 0.9;
+    assert!((state.residual(&group).energy - 0.5 * 0.01 / 2e-3).abs() < 1e-9);
+    // Hard edges store no energy.
+    let hard = mesh.group("{}").expect("group");
+    assert_eq!(state.residual(&hard).energy, 0.0);
+}
+
+#[test]
+fn extra_passes_do_not_stiffen_an_isolated_compliant_edge() {
+    // λ accumulates over the passes of a substep: after the first pass, an isolated edge is
+    // already at its XPBD solution and further passes leave it there.
+    let mesh = Mesh::pair([0.0; 3], [1.0, 0.0, 0.0]);
+    let run = |passes: u32| {
+        let mut group = mesh.group(r#"{"compliance": 1e-4}"#).expect("group");
+        let mut state = State::new(&mesh, vec![[0.0; 3], [1.5, 0.2, 0.0]]);
+        state.substep(&mut group, passes);
+        state.x
+    };
+    let once = run(1);
+    for passes in [2, 5, 20] {
+        let x = run(passes);
+        for (a, b) in x.iter().zip(&once) {
+            for k in 0..3 {
+                assert!(
+                    (a[k] - b[k]).abs() < 1e-12,
+                    "{passes} passes: {x:?} vs {once:?}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn begin_substep_resets_the_multipliers() {
+    let mesh = Mesh::grid(2, 1.0);
+    let start = stretched(&mesh, 1.2);
+    let params = r#"{"compliance": 1e-4}"#;
+    let mut fresh = mesh.group(params).expect("group");
+    let mut expected = State::new(&mesh, start.clone());
+    fresh
+        .begin_substep(&mut expected.ctx())
+        .into_result()
+        .expect("begin");
+    fresh
+        .project(&mut expected.ctx())
+        .into_result()
+        .expect("project");
+
+    // A used group, reset by begin_substep, projects as a fresh one.
+    let mut used = mesh.group(params).expect("group");
+    let mut state = State::new(&mesh, start.clone());
+    used.begin_substep(&mut state.ctx())
+        .into_result()
+        .expect("begin");
+    used.project(&mut state.ctx())
+        .into_result()
+        .expect("project");
+    let mut state = State::new(&mesh, start);
+    used.begin_substep(&mut state.ctx())
+        .into_result()
+        .expect("begin");
+    used.project(&mut state.ctx())
+        .into_result()
+        .expect("project");
+    assert_eq!(state.x, expected.x);
+}
+
+#[test]
+fn damping_dissipates_an_oscillating_edge() {
+    // Two unit masses on an edge of stiffness 1000 N/m in stretch and compression, released
+    // at 20 % strain: ~7 periods in 1 s. A damper of 5 N·s/m (damping ratio ≈ 0.11) must
+    // take the oscillation down far below what the integrator's own numerical damping does.
+    let mesh = Mesh::pair([0.0; 3], [1.0, 0.0, 0.0]);
+    let amplitude = |params: &str| {
+        let mut group = mesh.group(params).expect("group");
+        let mut state = State::new(&mesh, vec![[0.0; 3], [1.2, 0.0, 0.0]]);
+        let mut late_max: f64 = 0.0;
+        for step in 0..240 {
+            state.substep(&mut group, 1);
+            if step >= 192 {
+                late_max = late_max.max(state.residual(&group).max);
+            }
+        }
+        assert!(state.all_finite());
+        late_max
+    };
+    let undamped = amplitude(r#"{"compliance": 1e-3, "compression_compliance": 1e-3}"#);
+    let damped = amplitude(r#"{"compliance": 1e-3, "compression_compliance": 1e-3, "damping": 5}"#);
+    assert!(undamped > 0.003, "undamped amplitude {undamped}");
+    assert!(
+        damped < 0.1 * undamped,
+        "damped {damped} vs undamped {undamped}"
+    );
+}
+
+#[test]
+fn projection_is_deterministic() {
+    let mesh = Mesh::grid(4, 1.0);
+    let run = || {
+        let mut group = mesh
+            .group(r#"{"compliance": 1e-5, "compression_compliance": 1e-2, "damping": 1}"#)
+            .expect("group");
+        let mut state = State::new(&mesh, stretched(&mesh, 1.1));
+        for _ in 0..20 {
+            state.substep(&mut group, 2);
+        }
+        state.x
+    };
+    let bits = |x: Vec<[f64; 3]>| x.iter().flatten().map(|c| c.to_bits()).collect::<Vec<_>>();
+    assert_eq!(bits(run()), bits(run()));
+}
+
+#[test]
+fn edge_outside_its_object_is_a_bad_object() {
+    let mut mesh = Mesh::grid(1, 1.0);
+    mesh.edges.push([2, 9]);
+    let e = mesh.group("{}").err().expect("accepted");
+    assert_eq!(e.code, PluginError::BAD_OBJECT);
+    assert_eq!(e.subject.as_str(), "cloth");
+}
+
+#[test]
+fn target_listed_twice_is_used_once() {
+    let mesh = Mesh::grid(2, 1.0);
+    let group = mesh
+        .with_scene(&[0, 0], |scene| {
+            nucleus_plugin().create_group("stretch", "{}", scene)
+        })
+        .expect("group");
+    assert_eq!(group.constraint_count(), 16);
+    let e = mesh
+        .with_scene(&[1], |scene| {
+            nucleus_plugin().create_group("stretch", "{}", scene)
+        })
+        .err()
+        .expect("a missing target accepted");
+    assert_eq!(e.code, PluginError::FAILED);
+}
+
+#[test]
+fn a_state_too_small_for_the_group_is_an_error_not_a_panic() {
+    let mesh = Mesh::grid(2, 1.0);
+    let mut group = mesh.group("{}").expect("group");
+    let mut state = State::new(&mesh, mesh.rest[..4].to_vec());
+    state.inv_mass.truncate(4);
+    let e = group
+        .project(&mut state.ctx())
+        .into_result()
+        .expect_err("ran");
+    assert_eq!(e.code, PluginError::FAILED);
+    // The residual only measures the edges it can see.
+    assert!(state.residual(&group).count < 16);
+}
