@@ -19,7 +19,9 @@ use std::path::{Path, PathBuf};
 
 use abi_stable::library::{lib_header_from_path, LibraryError};
 use abi_stable::std_types::{RResult, RStr};
-use nucleus_sdk::{GroupBox, PluginError, PluginInfo, PluginModRef, SceneView, SDK_ABI_VERSION};
+use nucleus_sdk::{
+    GroupBox, PluginDef, PluginError, PluginInfo, PluginModRef, SceneView, SDK_ABI_VERSION,
+};
 
 /// A loading error.
 #[derive(Debug, thiserror::Error, Clone)]
@@ -67,14 +69,23 @@ pub struct Refused {
     pub cause: String,
 }
 
-/// A loaded plugin library.
+/// Where a plugin's code lives.
+#[derive(Clone, Copy)]
+enum Source {
+    /// A dynamically loaded library.
+    Library(PluginModRef),
+    /// Linked into this process (plugin unit tests; see [`Registry::add_in_process`]).
+    InProcess(&'static PluginDef),
+}
+
+/// A loaded plugin.
 #[derive(Clone)]
 pub struct LoadedPlugin {
-    /// The file.
+    /// The file (`<in-process>` for a plugin linked into the process).
     pub path: PathBuf,
     /// Its description.
     pub info: PluginInfo,
-    module: PluginModRef,
+    source: Source,
 }
 
 impl std::fmt::Debug for LoadedPlugin {
@@ -94,7 +105,18 @@ impl LoadedPlugin {
         params_json: &str,
         scene: &SceneView<'_>,
     ) -> Result<GroupBox, PluginError> {
-        match (self.module.create_group())(RStr::from(kind), RStr::from(params_json), scene) {
+        let result = match self.source {
+            Source::Library(module) => {
+                (module.create_group())(RStr::from(kind), RStr::from(params_json), scene)
+            }
+            Source::InProcess(def) => nucleus_sdk::group::create_entry(
+                def,
+                RStr::from(kind),
+                RStr::from(params_json),
+                scene,
+            ),
+        };
+        match result {
             RResult::ROk(g) => Ok(g),
             RResult::RErr(e) => Err(e),
         }
@@ -282,6 +304,17 @@ impl Registry {
                 return;
             }
         };
+        self.register(path, info, Source::Library(module));
+    }
+
+    /// Registers a plugin linked into this process, exactly as if it had been loaded from a
+    /// library: for a plugin's own tests of whole scenes (`nucleus-core` as a dev-dependency).
+    pub fn add_in_process(&mut self, def: &'static PluginDef) {
+        let path = PathBuf::from(format!("<in-process {}>", def.name));
+        self.register(&path, def.info(), Source::InProcess(def));
+    }
+
+    fn register(&mut self, path: &Path, info: PluginInfo, source: Source) {
         let index = self.plugins.len();
         for k in info.kinds.iter() {
             let name = k.name.to_string();
@@ -298,7 +331,7 @@ impl Registry {
         self.plugins.push(LoadedPlugin {
             path: path.to_path_buf(),
             info,
-            module,
+            source,
         });
     }
 

@@ -130,6 +130,8 @@ pub struct ObjectData {
     pub edge_triangle_count: Vec<u32>,
     /// All triangles, oriented.
     pub triangles: Vec<[u32; 3]>,
+    /// Tets per triangle.
+    pub triangle_tet_count: Vec<u32>,
     /// Triangles on the surface (not shared by two tets), for output and collisions.
     pub surface_triangles: Vec<[u32; 3]>,
     /// Curve edges (in no triangle), for output.
@@ -160,6 +162,9 @@ impl ObjectData {
             .iter()
             .map(|t| [g(t[0]), g(t[1]), g(t[2])])
             .collect();
+        let triangle_tet_count: Vec<u32> = (0..triangles.len())
+            .map(|i| complex.valence(2, i) as u32)
+            .collect();
         let surface_triangles = triangles
             .iter()
             .enumerate()
@@ -180,6 +185,7 @@ impl ObjectData {
             edges,
             edge_triangle_count,
             triangles,
+            triangle_tet_count,
             surface_triangles,
             curve_edges,
             tets: complex
@@ -223,6 +229,7 @@ impl ObjectData {
             edges: RSlice::from_slice(&self.edges),
             edge_triangle_count: RSlice::from_slice(&self.edge_triangle_count),
             triangles: RSlice::from_slice(&self.triangles),
+            triangle_tet_count: RSlice::from_slice(&self.triangle_tet_count),
             tets: RSlice::from_slice(&self.tets),
             triangle_pairs: RSlice::from_slice(&self.triangle_pairs),
             edge_pairs: RSlice::from_slice(&self.edge_pairs),
@@ -486,6 +493,12 @@ impl Simulation {
         };
         sim.reschedule();
         Ok(sim)
+    }
+
+    /// Parses scene text (as `inline.toml`) and builds it: a shortcut for tests.
+    pub fn from_toml(text: &str, registry: &Registry) -> Result<Simulation, BuildError> {
+        let scene = Scene::parse(text, std::path::Path::new("inline.toml"))?;
+        Self::build(&scene, registry)
     }
 
     /// Recomputes the call sequence and stage lists (after changing settings or importances).

@@ -250,6 +250,9 @@ pub struct ObjectView<'a> {
     /// Every 2-simplex, given or derived as a face of a tet, in its given winding (tet faces
     /// are wound outward from their first tet).
     pub triangles: RSlice<'a, [u32; 3]>,
+    /// For each triangle, how many tets contain it (0: a surface of its own, 1: on a solid's
+    /// boundary, 2: inside a solid).
+    pub triangle_tet_count: RSlice<'a, u32>,
     /// Every 3-simplex as given.
     pub tets: RSlice<'a, [u32; 4]>,
     /// Triangle pairs sharing an edge, with opposite vertices.
@@ -260,7 +263,8 @@ pub struct ObjectView<'a> {
     pub boundary_edges: RSlice<'a, [u32; 2]>,
     /// 1 if the surface is closed (it has triangles and no boundary edge), else 0.
     pub closed: u8,
-    /// 1 if every edge is in at most two triangles, else 0.
+    /// 1 if every triangle is in at most two tets and every edge in at most two *surface*
+    /// triangles (those not shared by two tets), else 0.
     pub manifold: u8,
 }
 

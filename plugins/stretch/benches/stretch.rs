@@ -58,6 +58,7 @@ fn group(cloth: &Cloth, params: &str) -> GroupBox {
         edges: RSlice::from_slice(&cloth.edges),
         edge_triangle_count: RSlice::EMPTY,
         triangles: RSlice::from_slice(&cloth.triangles),
+        triangle_tet_count: RSlice::from_slice(&[]),
         tets: RSlice::EMPTY,
         triangle_pairs: RSlice::EMPTY,
         edge_pairs: RSlice::EMPTY,

@@ -75,6 +75,7 @@ impl Mesh {
             edges: RSlice::from_slice(&self.edges),
             edge_triangle_count: RSlice::EMPTY,
             triangles: RSlice::from_slice(&self.triangles),
+            triangle_tet_count: RSlice::from_slice(&[]),
             tets: RSlice::EMPTY,
             triangle_pairs: RSlice::EMPTY,
             edge_pairs: RSlice::EMPTY,
