@@ -1,0 +1,13 @@
+//! Nucleus collision plugin (work in progress).
+
+use nucleus_sdk::prelude::*;
+
+fn kinds() -> Vec<KindSpec> {
+    Vec::new()
+}
+
+nucleus_sdk::export_plugin!(PluginDef {
+    name: "collision",
+    version: env!("CARGO_PKG_VERSION"),
+    kinds,
+});
