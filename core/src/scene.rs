@@ -184,6 +184,23 @@ pub struct TetBoxSpec {
     pub resolution: Spanned<[u32; 3]>,
 }
 
+/// A closed sphere surface (icosphere), normals pointing out.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SphereSpec {
+    /// Centre (m).
+    pub center: [f64; 3],
+    /// Radius (m).
+    pub radius: f64,
+    /// Subdivisions of the icosahedron (0: 20 triangles; each level ×4). Default 2.
+    #[serde(default = "two")]
+    pub subdivisions: Spanned<u32>,
+}
+
+fn two() -> Spanned<u32> {
+    Spanned::new(0..0, 2)
+}
+
 /// A triangle (and polyline) mesh from an OBJ file, relative to the scene file.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -264,6 +281,8 @@ pub struct ObjectSpec {
     pub tet_box: Option<TetBoxSpec>,
     /// An OBJ mesh.
     pub mesh: Option<MeshSpec>,
+    /// A sphere surface.
+    pub sphere: Option<SphereSpec>,
 }
 
 /// A constraint group: one kind over some objects.
@@ -570,13 +589,14 @@ impl Scene {
             o.particles.is_some(),
             o.tet_box.is_some(),
             o.mesh.is_some(),
+            o.sphere.is_some(),
         ];
         let n_shapes = shapes.iter().filter(|&&b| b).count();
         if n_shapes != 1 {
             return Err(self.invalid(
                 o.name.span(),
                 format!(
-                    "object `{name}` needs exactly one shape table (grid, rope, particles, tet_box, mesh), found {n_shapes}"
+                    "object `{name}` needs exactly one shape table (grid, rope, particles, tet_box, mesh, sphere), found {n_shapes}"
                 ),
             ));
         }
@@ -652,6 +672,22 @@ impl Scene {
                 ));
             }
             return Ok(crate::shapes::tet_box(t.min, t.max, r));
+        }
+        if let Some(sp) = &o.sphere {
+            let n = *sp.subdivisions.get_ref();
+            if n > 7 {
+                return Err(self.invalid(
+                    sp.subdivisions.span(),
+                    format!("object `{name}`: at most 7 subdivisions (327,682 vertices)"),
+                ));
+            }
+            if !(finite3(&sp.center) && sp.radius.is_finite() && sp.radius > 0.0) {
+                return Err(self.invalid(
+                    o.name.span(),
+                    format!("object `{name}`: sphere needs a finite center and a positive radius"),
+                ));
+            }
+            return Ok(crate::shapes::icosphere(sp.center, sp.radius, n));
         }
         let m = o.mesh.as_ref().expect("exactly one shape is set");
         let rel = m.path.get_ref();

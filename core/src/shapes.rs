@@ -89,6 +89,75 @@ pub fn rope(start: [f64; 3], end: [f64; 3], segments: u32, length: Option<f64>) 
     }
 }
 
+/// A closed icosphere: an icosahedron subdivided `subdivisions` times, vertices projected on
+/// the sphere, triangles wound counter-clockwise seen from outside (normals point out).
+pub fn icosphere(center: [f64; 3], radius: f64, subdivisions: u32) -> Geometry {
+    let t = (1.0 + 5f64.sqrt()) / 2.0;
+    let mut verts: Vec<DVec3> = [
+        [-1.0, t, 0.0],
+        [1.0, t, 0.0],
+        [-1.0, -t, 0.0],
+        [1.0, -t, 0.0],
+        [0.0, -1.0, t],
+        [0.0, 1.0, t],
+        [0.0, -1.0, -t],
+        [0.0, 1.0, -t],
+        [t, 0.0, -1.0],
+        [t, 0.0, 1.0],
+        [-t, 0.0, -1.0],
+        [-t, 0.0, 1.0],
+    ]
+    .iter()
+    .map(|p| DVec3::from_array(*p).normalize())
+    .collect();
+    let mut tris: Vec<[u32; 3]> = vec![
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
+    ];
+    for _ in 0..subdivisions {
+        let mut midpoint: std::collections::BTreeMap<(u32, u32), u32> = Default::default();
+        let mut mid = |a: u32, b: u32, verts: &mut Vec<DVec3>| -> u32 {
+            let key = (a.min(b), a.max(b));
+            *midpoint.entry(key).or_insert_with(|| {
+                verts.push(((verts[a as usize] + verts[b as usize]) * 0.5).normalize());
+                verts.len() as u32 - 1
+            })
+        };
+        let mut next = Vec::with_capacity(tris.len() * 4);
+        for [a, b, c] in tris {
+            let ab = mid(a, b, &mut verts);
+            let bc = mid(b, c, &mut verts);
+            let ca = mid(c, a, &mut verts);
+            next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+        }
+        tris = next;
+    }
+    let c = DVec3::from_array(center);
+    Geometry {
+        positions: verts.iter().map(|v| (c + *v * radius).to_array()).collect(),
+        triangles: tris,
+        ..Geometry::default()
+    }
+}
+
 /// Unconnected particles on a lattice filling the box `[min, max]`.
 pub fn particle_block(min: [f64; 3], max: [f64; 3], count: [u32; 3]) -> Geometry {
     let step = |k: usize| {
@@ -383,6 +452,28 @@ mod tests {
         assert!((len - 1.5).abs() < 1e-12);
         assert!((p[10] - DVec3::X).length() < 1e-12);
         assert!(p[5].y < -0.5);
+    }
+
+    #[test]
+    fn icosphere_is_closed_outward_and_on_the_sphere() {
+        let g = icosphere([1.0, 2.0, 3.0], 0.5, 2);
+        assert_eq!(g.triangles.len(), 20 * 16);
+        assert_eq!(g.positions.len(), 10 * 16 + 2);
+        let c = DVec3::new(1.0, 2.0, 3.0);
+        let p = |i: u32| DVec3::from_array(g.positions[i as usize]);
+        let mut volume = 0.0;
+        for t in &g.triangles {
+            volume += (p(t[0]) - c).dot((p(t[1]) - c).cross(p(t[2]) - c)) / 6.0;
+        }
+        let sphere = 4.0 / 3.0 * std::f64::consts::PI * 0.125;
+        assert!(volume > 0.0, "outward winding gives a positive volume");
+        assert!((volume - sphere).abs() / sphere < 0.05);
+        for v in &g.positions {
+            assert!(((DVec3::from_array(*v) - c).length() - 0.5).abs() < 1e-12);
+        }
+        let complex =
+            crate::complex::Complex::build(g.positions.len(), &[], &[], &g.triangles, &[]).unwrap();
+        assert!(complex.is_closed() && complex.is_manifold() && complex.orientation_consistent());
     }
 
     #[test]
