@@ -213,22 +213,81 @@ pub struct MeshSpec {
     /// Translation after scaling (m). Default 0.
     #[serde(default)]
     pub translate: [f64; 3],
+    /// An animated mesh: a file pattern with `{frame}` (or `{frame:04}` for zero padding),
+    /// relative to the scene file, read for frames 0..=frames (the last file found is held).
+    /// Every file must have the same vertices and faces as `path`; pinned vertices follow
+    /// it, interpolated linearly within each frame.
+    pub sequence: Option<Spanned<String>>,
 }
 
 fn one() -> f64 {
     1.0
 }
 
-/// Motion of an object's pinned (kinematic) vertices: a rigid motion about `pivot`.
-#[derive(Debug, Clone, Deserialize, Default)]
+/// Motion of an object's pinned (kinematic) vertices: a rigid motion about `pivot`, either
+/// at constant velocity or through keyframes. A vertex at rest position `r` is at
+/// `pivot + R(t) (r − pivot) + T(t)` at time `t`.
+#[derive(Debug, Clone, Deserialize, Default, PartialEq)]
 #[serde(deny_unknown_fields, default)]
 pub struct PinMotion {
-    /// Linear velocity (m/s).
+    /// Linear velocity (m/s): `T(t) = velocity · t`.
     pub velocity: [f64; 3],
-    /// Angular velocity (rad/s), about `pivot`.
+    /// Angular velocity (rad/s), about `pivot`: `R(t) = exp(angular_velocity · t)`.
     pub angular_velocity: [f64; 3],
     /// Centre of rotation (m).
     pub pivot: [f64; 3],
+    /// Keyframes (instead of the velocities): translation interpolated linearly, rotation by
+    /// slerp, held constant before the first and after the last key.
+    pub keys: Vec<Keyframe>,
+}
+
+/// A keyframe of a rigid pin motion.
+#[derive(Debug, Clone, Deserialize, Default, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct Keyframe {
+    /// Time (s).
+    pub time: f64,
+    /// Translation (m).
+    pub translate: [f64; 3],
+    /// Rotation as an axis-angle vector (rad), about the motion's pivot.
+    pub rotate: [f64; 3],
+}
+
+impl PinMotion {
+    /// Whether the pins move at all.
+    pub fn is_moving(&self) -> bool {
+        self.velocity != [0.0; 3] || self.angular_velocity != [0.0; 3] || !self.keys.is_empty()
+    }
+
+    /// The rigid transform `(R, T)` at time `t`.
+    pub fn transform(&self, t: f64) -> (glam::DQuat, glam::DVec3) {
+        use glam::{DQuat, DVec3};
+        if self.keys.is_empty() {
+            return (
+                DQuat::from_scaled_axis(DVec3::from_array(self.angular_velocity) * t),
+                DVec3::from_array(self.velocity) * t,
+            );
+        }
+        let key = |k: &Keyframe| {
+            (
+                DQuat::from_scaled_axis(DVec3::from_array(k.rotate)),
+                DVec3::from_array(k.translate),
+            )
+        };
+        let keys = &self.keys;
+        let after = keys.partition_point(|k| k.time <= t);
+        if after == 0 {
+            return key(&keys[0]);
+        }
+        if after == keys.len() {
+            return key(&keys[keys.len() - 1]);
+        }
+        let (k0, k1) = (&keys[after - 1], &keys[after]);
+        let s = ((t - k0.time) / (k1.time - k0.time)).clamp(0.0, 1.0);
+        let (r0, t0) = key(k0);
+        let (r1, t1) = key(k1);
+        (r0.slerp(r1, s), t0.lerp(t1, s))
+    }
 }
 
 /// A pin selector: a vertex index, a named selector, or a box in the rest pose.
@@ -344,6 +403,8 @@ pub struct Geometry {
     pub tets: Vec<[u32; 4]>,
     /// Grid resolution, for grid selectors.
     pub grid: Option<[u32; 2]>,
+    /// Positions per frame of an animated mesh (frame 0 first); empty if not animated.
+    pub sequence: Vec<Vec<[f64; 3]>>,
 }
 
 /// A scene read from a file, with its source kept for error locations.
@@ -554,6 +615,30 @@ impl Scene {
                     format!("object `{name}`: give only one of mass, density, vertex_mass"),
                 ));
             }
+            let m = &o.pin_motion;
+            let finite = |v: &[f64; 3]| v.iter().all(|x| x.is_finite());
+            let keys_ok = m
+                .keys
+                .iter()
+                .all(|k| k.time.is_finite() && finite(&k.translate) && finite(&k.rotate))
+                && m.keys.windows(2).all(|w| w[1].time > w[0].time);
+            if !(finite(&m.velocity) && finite(&m.angular_velocity) && finite(&m.pivot) && keys_ok)
+            {
+                return Err(self.invalid(
+                    o.name.span(),
+                    format!(
+                        "object `{name}`: pin_motion must be finite, with keys in increasing time"
+                    ),
+                ));
+            }
+            if !m.keys.is_empty() && (m.velocity != [0.0; 3] || m.angular_velocity != [0.0; 3]) {
+                return Err(self.invalid(
+                    o.name.span(),
+                    format!(
+                        "object `{name}`: pin_motion takes either keys or velocities, not both"
+                    ),
+                ));
+            }
             if !o.velocity.iter().all(|v| v.is_finite()) {
                 return Err(self.invalid(
                     o.name.span(),
@@ -701,12 +786,61 @@ impl Scene {
                 format!("object `{name}`: mesh scale must be positive and translate finite"),
             ));
         }
-        crate::shapes::load_obj(&full, m.scale, m.translate).map_err(|e| {
+        let mut geo = crate::shapes::load_obj(&full, m.scale, m.translate).map_err(|e| {
             self.invalid(
                 m.path.span(),
                 format!("object `{name}`: mesh {}: {e}", full.display()),
             )
-        })
+        })?;
+        if let Some(pattern) = &m.sequence {
+            let dir = self
+                .path
+                .parent()
+                .map(Path::to_path_buf)
+                .unwrap_or_default();
+            for frame in 0..=self.file.solver.frames {
+                let file = dir.join(
+                    pattern
+                        .get_ref()
+                        .replace("{frame:04}", &format!("{frame:04}"))
+                        .replace("{frame}", &frame.to_string()),
+                );
+                if !file.is_file() {
+                    if frame == 0 {
+                        geo.sequence.push(geo.positions.clone());
+                        continue;
+                    }
+                    break;
+                }
+                let g = crate::shapes::load_obj(&file, m.scale, m.translate).map_err(|e| {
+                    self.invalid(
+                        pattern.span(),
+                        format!("object `{name}`: mesh {}: {e}", file.display()),
+                    )
+                })?;
+                if g.positions.len() != geo.positions.len() || g.triangles != geo.triangles {
+                    return Err(self.invalid(
+                        pattern.span(),
+                        format!(
+                            "object `{name}`: {} does not have the same vertices and faces as {}",
+                            file.display(),
+                            full.display()
+                        ),
+                    ));
+                }
+                geo.sequence.push(g.positions);
+            }
+            if geo.sequence.len() < 2 {
+                return Err(self.invalid(
+                    pattern.span(),
+                    format!(
+                        "object `{name}`: no files match the sequence `{}`",
+                        pattern.get_ref()
+                    ),
+                ));
+            }
+        }
+        Ok(geo)
     }
 
     /// Resolves the pins of an object to local vertex indices (sorted, unique).

@@ -254,9 +254,9 @@ pub fn load_obj(path: &Path, scale: f64, translate: [f64; 3]) -> Result<Geometry
         }
         for p in mesh.positions.chunks_exact(3) {
             let q = [
-                p[0] as f64 * scale + translate[0],
-                p[1] as f64 * scale + translate[1],
-                p[2] as f64 * scale + translate[2],
+                p[0] * scale + translate[0],
+                p[1] * scale + translate[1],
+                p[2] * scale + translate[2],
             ];
             if !q.iter().all(|c| c.is_finite()) {
                 return Err(format!("object `{}`: non-finite vertex position", m.name));

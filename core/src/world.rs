@@ -150,6 +150,8 @@ pub struct ObjectData {
     pub manifold: bool,
     /// Motion of the pinned vertices.
     pub pin_motion: PinMotion,
+    /// Positions per frame of an animated mesh (local vertex order); empty if not animated.
+    pub sequence: Vec<Vec<[f64; 3]>>,
 }
 
 impl ObjectData {
@@ -217,6 +219,7 @@ impl ObjectData {
             closed: complex.is_closed(),
             manifold: complex.is_manifold(),
             pin_motion: PinMotion::default(),
+            sequence: Vec::new(),
         }
     }
 
@@ -312,8 +315,10 @@ pub struct Simulation {
     force_groups: Vec<usize>,
     begin_groups: Vec<usize>,
     end_groups: Vec<usize>,
-    /// Kinematic particles whose object has a pin motion.
+    /// Kinematic particles whose object has a pin motion or an animated mesh.
     moving_pins: Vec<u32>,
+    /// Scratch: each object's pin transform at the current target time.
+    object_transforms: Vec<(DQuat, DVec3)>,
     /// Simulated time (s).
     pub time: f64,
     /// Frames done.
@@ -374,6 +379,7 @@ impl Simulation {
             let first = p.x.len() as u32;
             let mut data = ObjectData::from_complex(name, first, &complex);
             data.pin_motion = spec.pin_motion.clone();
+            data.sequence = geo.sequence.clone();
             objects.push(data);
             for (i, (pos, m)) in geo.positions.iter().zip(&masses).enumerate() {
                 let pinned = pins.binary_search(&(i as u32)).is_ok();
@@ -387,13 +393,14 @@ impl Simulation {
                 p.flags.push(if pinned { FLAG_KINEMATIC } else { 0 });
             }
         }
-        let is_moving = |m: &PinMotion| m.velocity != [0.0; 3] || m.angular_velocity != [0.0; 3];
         let moving_pins = (0..p.len() as u32)
             .filter(|&i| {
+                let o = &objects[p.object[i as usize] as usize];
                 p.flags[i as usize] & FLAG_KINEMATIC != 0
-                    && is_moving(&objects[p.object[i as usize] as usize].pin_motion)
+                    && (o.pin_motion.is_moving() || !o.sequence.is_empty())
             })
             .collect();
+        let object_transforms = vec![(DQuat::IDENTITY, DVec3::ZERO); objects.len()];
 
         let views: Vec<ObjectView<'_>> = objects.iter().map(ObjectData::view).collect();
         let mut groups = Vec::new();
@@ -488,6 +495,7 @@ impl Simulation {
             begin_groups: Vec::new(),
             end_groups: Vec::new(),
             moving_pins,
+            object_transforms,
             time: 0.0,
             frame: 0,
         };
@@ -572,13 +580,31 @@ impl Simulation {
     }
 
     fn move_kinematic(&mut self, t: f64) {
+        if self.moving_pins.is_empty() {
+            return;
+        }
+        for (o, tr) in self.objects.iter().zip(&mut self.object_transforms) {
+            *tr = o.pin_motion.transform(t);
+        }
+        let frame_pos = t * self.settings.frame_rate;
         for &i in &self.moving_pins {
             let i = i as usize;
-            let m = &self.objects[self.particles.object[i] as usize].pin_motion;
-            let pivot = DVec3::from_array(m.pivot);
-            let rot = DQuat::from_scaled_axis(DVec3::from_array(m.angular_velocity) * t);
-            let rest = DVec3::from_array(self.particles.rest[i]);
-            let target = pivot + rot * (rest - pivot) + DVec3::from_array(m.velocity) * t;
+            let oi = self.particles.object[i] as usize;
+            let o = &self.objects[oi];
+            let target = if o.sequence.is_empty() {
+                let (rot, trans) = self.object_transforms[oi];
+                let pivot = DVec3::from_array(o.pin_motion.pivot);
+                let rest = DVec3::from_array(self.particles.rest[i]);
+                pivot + rot * (rest - pivot) + trans
+            } else {
+                let last = o.sequence.len() - 1;
+                let f = (frame_pos.floor().max(0.0) as usize).min(last);
+                let g = (f + 1).min(last);
+                let s = (frame_pos - f as f64).clamp(0.0, 1.0);
+                let local = i - o.first as usize;
+                DVec3::from_array(o.sequence[f][local])
+                    .lerp(DVec3::from_array(o.sequence[g][local]), s)
+            };
             // Kinematic particles use x0 as scratch for their target until `predict`.
             self.particles.x0[i] = target.to_array();
         }
