@@ -1,0 +1,1059 @@
+//! The `collision` group: the primitives of the target objects, the broad phase, the contact
+//! set of the current substep, and the stages that detect and resolve them. See the
+//! [crate docs](crate) for the algorithm.
+
+use glam::DVec3;
+use nucleus_sdk::prelude::*;
+
+use crate::bvh::{Aabb, Bvh, HashGrid};
+use crate::contact::{Contact, PairKind};
+use crate::distance;
+use crate::pairs::{self, Track};
+use crate::params::{CollisionParams, ObjectSettings};
+use crate::shapes::{first_contact, Collider, Pose};
+
+/// A pair of primitives whose swept boxes overlap this substep.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub struct Candidate {
+    /// What the two primitives are.
+    pub kind: PairKind,
+    /// The primitives (indices into the group's lists; see [`PairKind`]).
+    pub pair: [u32; 2],
+}
+
+/// No contact for this candidate.
+const NONE: u32 = u32::MAX;
+/// Carrier of a frozen vertex that stays where it started the substep.
+const CARRY_STILL: u32 = u32::MAX - 1;
+
+/// Counters of one frame, for the stats.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FrameStats {
+    /// Frame they belong to.
+    pub frame: u64,
+    /// Largest number of contacts in a substep.
+    pub contacts: usize,
+    /// Largest number of candidate pairs in a substep.
+    pub candidates: usize,
+    /// Broad phases run (one per substep, plus one whenever a primitive left its margin).
+    pub broad_phases: usize,
+    /// Vertices frozen by the fail-safe.
+    pub frozen: usize,
+    /// Crossing pairs the fail-safe could not resolve (0 unless two colliders squeeze a
+    /// vertex, or a deforming kinematic mesh sweeps through a frozen one).
+    pub unresolved: usize,
+    /// Deepest violation of the thickness at the end of a substep (m).
+    pub max_penetration: f64,
+}
+
+/// All the collisions of one group.
+pub struct CollisionGroup {
+    restitution: f64,
+    mu_static: f64,
+    mu_dynamic: f64,
+    /// Settings of each target object (group-local object index).
+    settings: Vec<ObjectSettings>,
+    /// Excluded pairs of group-local objects (sorted).
+    excluded: Vec<[u32; 2]>,
+    /// Rest positions (m), for the rest-distance filter of self-collision.
+    rest: Vec<DVec3>,
+    /// Particles of every vertex primitive, their object (local) and radius.
+    verts: Vec<u32>,
+    vert_obj: Vec<u32>,
+    /// Vertex primitives that are unconnected particles (indices into `verts`).
+    isolated: Vec<u32>,
+    edges: Vec<[u32; 2]>,
+    edge_obj: Vec<u32>,
+    /// Whether each edge is a curve edge (in no triangle).
+    edge_curve: Vec<bool>,
+    faces: Vec<[u32; 3]>,
+    face_obj: Vec<u32>,
+    colliders: Vec<Collider>,
+    /// For each local object whose every vertex is kinematic, three vertices spanning a
+    /// frame (its rigid motion carries vertices frozen by the fail-safe).
+    rigid_frame: Vec<Option<[u32; 3]>>,
+    /// Whether any pair can ever collide (else the group is empty and never scheduled).
+    active: bool,
+
+    // Broad phase (capacity kept between substeps).
+    vert_boxes: Vec<Aabb>,
+    edge_boxes: Vec<Aabb>,
+    face_boxes: Vec<Aabb>,
+    iso_boxes: Vec<Aabb>,
+    edge_bvh: Bvh,
+    face_bvh: Bvh,
+    grid: HashGrid,
+    iso_pairs: Vec<[u32; 2]>,
+    stack: Vec<u32>,
+    collider_boxes: Vec<Aabb>,
+    pose0: Vec<Pose>,
+    pose1: Vec<Pose>,
+    /// Candidate pairs, sorted.
+    candidates: Vec<Candidate>,
+    /// Contact of each candidate (`NONE` if none).
+    contact_of: Vec<u32>,
+    /// Contacts of the substep.
+    contacts: Vec<Contact>,
+    /// Positions after prediction, before the solve.
+    x_pred: Vec<DVec3>,
+    /// Velocities before the solve (end_substep scratch).
+    v_pre: Vec<DVec3>,
+    /// Fail-safe carrier of each particle.
+    carrier: Vec<u32>,
+    frozen_list: Vec<u32>,
+    h: f64,
+    stats: FrameStats,
+}
+
+/// The margin (m) added to every swept box, beyond the thickness, so that the positions can
+/// move a little during the solve without a new broad phase: a tenth of the thickness plus a
+/// fixed 0.1 mm.
+fn margin(radius: f64) -> f64 {
+    0.1 * radius + 1e-4
+}
+
+impl CollisionGroup {
+    /// Builds the group: collects the vertices, edges and faces of the target objects (only
+    /// the surface of tetrahedral solids), their settings and the colliders.
+    pub fn new(params: &CollisionParams, scene: &SceneView<'_>) -> Result<Self, PluginError> {
+        params.validate_numbers()?;
+        let objects = scene.objects.as_slice();
+        let rest = scene.rest_positions().to_vec();
+        let inv_mass = scene.inv_mass.as_slice();
+        let n = rest.len().min(inv_mass.len());
+
+        let mut targets: Vec<u32> = Vec::new();
+        for &t in scene.targets.as_slice() {
+            if t as usize >= objects.len() {
+                return Err(PluginError::failed(format!(
+                    "target {t} is not an object of the scene ({} objects)",
+                    objects.len()
+                )));
+            }
+            if !targets.contains(&t) {
+                targets.push(t);
+            }
+        }
+        let names: Vec<&str> = targets
+            .iter()
+            .map(|&t| objects[t as usize].name.as_str())
+            .collect();
+        let settings = params.object_settings(&names)?;
+        let excluded = params.excluded_pairs(&names)?;
+        let colliders = params.colliders()?;
+
+        let mut g = Self {
+            restitution: params.restitution,
+            mu_static: params.friction_static,
+            mu_dynamic: params.friction_dynamic,
+            settings,
+            excluded,
+            rest,
+            verts: Vec::new(),
+            vert_obj: Vec::new(),
+            isolated: Vec::new(),
+            edges: Vec::new(),
+            edge_obj: Vec::new(),
+            edge_curve: Vec::new(),
+            faces: Vec::new(),
+            face_obj: Vec::new(),
+            colliders,
+            rigid_frame: Vec::new(),
+            active: false,
+            vert_boxes: Vec::new(),
+            edge_boxes: Vec::new(),
+            face_boxes: Vec::new(),
+            iso_boxes: Vec::new(),
+            edge_bvh: Bvh::default(),
+            face_bvh: Bvh::default(),
+            grid: HashGrid::default(),
+            iso_pairs: Vec::new(),
+            stack: Vec::with_capacity(128),
+            collider_boxes: Vec::new(),
+            pose0: Vec::new(),
+            pose1: Vec::new(),
+            candidates: Vec::new(),
+            contact_of: Vec::new(),
+            contacts: Vec::new(),
+            x_pred: vec![DVec3::ZERO; n],
+            v_pre: vec![DVec3::ZERO; n],
+            carrier: vec![NONE; n],
+            frozen_list: Vec::new(),
+            h: 0.0,
+            stats: FrameStats::default(),
+        };
+
+        let mut dynamic_objects = Vec::new();
+        for (k, &t) in targets.iter().enumerate() {
+            let o = &objects[t as usize];
+            let s = g.settings[k];
+            let range = o.first as usize..o.first as usize + o.count as usize;
+            let bad = |m: String| PluginError::bad_object(o.name.as_str(), m);
+            if range.end > n {
+                return Err(bad(format!(
+                    "particles {}..{} are outside the scene's {n}",
+                    range.start, range.end
+                )));
+            }
+            let check = |i: u32| -> Result<(), PluginError> {
+                if range.contains(&(i as usize)) {
+                    Ok(())
+                } else {
+                    Err(bad(format!(
+                        "vertex {i} is outside the object's particles {}..{}",
+                        range.start, range.end
+                    )))
+                }
+            };
+            let tet_count = o.triangle_tet_count.as_slice();
+            let mut surface: Vec<[u32; 3]> = Vec::new();
+            for (i, tri) in o.triangles.as_slice().iter().enumerate() {
+                if tet_count.get(i).copied().unwrap_or(0) < 2 {
+                    for &v in tri {
+                        check(v)?;
+                    }
+                    surface.push(*tri);
+                }
+            }
+            let mut edges: Vec<([u32; 2], bool)> = surface
+                .iter()
+                .flat_map(|t| [[t[0], t[1]], [t[1], t[2]], [t[2], t[0]]])
+                .map(|[a, b]| ([a.min(b), a.max(b)], false))
+                .collect();
+            let counts = o.edge_triangle_count.as_slice();
+            for (i, e) in o.edges.as_slice().iter().enumerate() {
+                if counts.get(i).copied() == Some(0) {
+                    check(e[0])?;
+                    check(e[1])?;
+                    edges.push(([e[0].min(e[1]), e[0].max(e[1])], true));
+                }
+            }
+            edges.sort_unstable();
+            edges.dedup_by(|a, b| a.0 == b.0);
+            edges.retain(|(e, _)| e[0] != e[1]);
+            let mut verts: Vec<u32> = surface
+                .iter()
+                .flatten()
+                .copied()
+                .chain(edges.iter().flat_map(|(e, _)| *e))
+                .collect();
+            let mut points = o.points.as_slice().to_vec();
+            for &p in &points {
+                check(p)?;
+            }
+            points.sort_unstable();
+            verts.extend_from_slice(&points);
+            verts.sort_unstable();
+            verts.dedup();
+
+            let all_kinematic = range.clone().all(|i| inv_mass[i] == 0.0);
+            g.rigid_frame.push(if all_kinematic {
+                frame_vertices(&g.rest, &verts)
+            } else {
+                None
+            });
+            if !all_kinematic {
+                dynamic_objects.push(k);
+            }
+            if s.vertex {
+                for &v in &verts {
+                    if points.binary_search(&v).is_ok() {
+                        g.isolated.push(g.verts.len() as u32);
+                    }
+                    g.verts.push(v);
+                    g.vert_obj.push(k as u32);
+                }
+            }
+            if s.edge {
+                for (e, curve) in edges {
+                    g.edges.push(e);
+                    g.edge_obj.push(k as u32);
+                    g.edge_curve.push(curve);
+                }
+            }
+            if s.face {
+                for t in surface {
+                    if t[0] != t[1] && t[1] != t[2] && t[0] != t[2] {
+                        g.faces.push(t);
+                        g.face_obj.push(k as u32);
+                    }
+                }
+            }
+        }
+
+        // Can anything collide? A dynamic object with colliders, with itself, or with another
+        // object that is not excluded.
+        let k_count = targets.len();
+        let any_prims = |k: usize| {
+            g.vert_obj.contains(&(k as u32))
+                || g.edge_obj.contains(&(k as u32))
+                || g.face_obj.contains(&(k as u32))
+        };
+        for &k in &dynamic_objects {
+            if !any_prims(k) {
+                continue;
+            }
+            if !g.colliders.is_empty() && g.vert_obj.contains(&(k as u32)) {
+                g.active = true;
+            }
+            if g.settings[k].self_collision {
+                g.active = true;
+            }
+            for other in 0..k_count {
+                if other != k && any_prims(other) && !g.is_excluded(k as u32, other as u32) {
+                    g.active = true;
+                }
+            }
+        }
+
+        // Broad-phase structures over the rest pose; refit from the first substep on.
+        let radius_v = |i: usize| g.settings[g.vert_obj[i] as usize].thickness;
+        g.vert_boxes = (0..g.verts.len())
+            .map(|i| Aabb::of_points(&[g.rest[g.verts[i] as usize]], radius_v(i)))
+            .collect();
+        g.edge_boxes = g
+            .edges
+            .iter()
+            .zip(&g.edge_obj)
+            .map(|(e, &o)| {
+                Aabb::of_points(
+                    &[g.rest[e[0] as usize], g.rest[e[1] as usize]],
+                    g.settings[o as usize].thickness,
+                )
+            })
+            .collect();
+        g.face_boxes = g
+            .faces
+            .iter()
+            .zip(&g.face_obj)
+            .map(|(f, &o)| {
+                Aabb::of_points(
+                    &[
+                        g.rest[f[0] as usize],
+                        g.rest[f[1] as usize],
+                        g.rest[f[2] as usize],
+                    ],
+                    g.settings[o as usize].thickness,
+                )
+            })
+            .collect();
+        g.edge_bvh = Bvh::build(&g.edge_boxes);
+        g.face_bvh = Bvh::build(&g.face_boxes);
+        g.iso_boxes = vec![Aabb::EMPTY; g.isolated.len()];
+        g.collider_boxes = vec![Aabb::EMPTY; g.colliders.len()];
+        g.pose0 = vec![Pose::IDENTITY; g.colliders.len()];
+        g.pose1 = vec![Pose::IDENTITY; g.colliders.len()];
+        let prims = g.verts.len() + g.edges.len() + g.faces.len();
+        g.candidates.reserve(4 * prims);
+        g.contact_of.reserve(4 * prims);
+        g.contacts.reserve(prims);
+        Ok(g)
+    }
+
+    fn is_excluded(&self, a: u32, b: u32) -> bool {
+        self.excluded
+            .binary_search(&[a.min(b), a.max(b)])
+            .is_ok()
+    }
+
+    /// The contacts of the current substep.
+    pub fn contacts(&self) -> &[Contact] {
+        &self.contacts
+    }
+
+    /// The candidate pairs of the current substep.
+    pub fn candidates(&self) -> &[Candidate] {
+        &self.candidates
+    }
+
+    /// The counters of the last frame.
+    pub fn frame_stats(&self) -> FrameStats {
+        self.stats
+    }
+
+    /// Number of vertex, edge and face primitives.
+    pub fn primitive_counts(&self) -> [usize; 3] {
+        [self.verts.len(), self.edges.len(), self.faces.len()]
+    }
+
+    fn radius(&self, local_object: u32) -> f64 {
+        self.settings[local_object as usize].thickness
+    }
+
+    // ------------------------------------------------------------------------------------
+    // Broad phase
+    // ------------------------------------------------------------------------------------
+
+    /// The tight swept box of a primitive (its particles over `[x0, x]`, grown by its radius).
+    #[inline]
+    fn vert_box(&self, i: usize, x0: &[DVec3], x: &[DVec3]) -> Aabb {
+        let p = self.verts[i] as usize;
+        Aabb::of_points(&[x0[p], x[p]], self.radius(self.vert_obj[i]))
+    }
+
+    #[inline]
+    fn edge_box(&self, i: usize, x0: &[DVec3], x: &[DVec3]) -> Aabb {
+        let [a, b] = self.edges[i];
+        let (a, b) = (a as usize, b as usize);
+        Aabb::of_points(&[x0[a], x0[b], x[a], x[b]], self.radius(self.edge_obj[i]))
+    }
+
+    #[inline]
+    fn face_box(&self, i: usize, x0: &[DVec3], x: &[DVec3]) -> Aabb {
+        let [a, b, c] = self.faces[i];
+        let (a, b, c) = (a as usize, b as usize, c as usize);
+        Aabb::of_points(
+            &[x0[a], x0[b], x0[c], x[a], x[b], x[c]],
+            self.radius(self.face_obj[i]),
+        )
+    }
+
+    /// Whether a pair of objects (local) may collide at all.
+    #[inline]
+    fn objects_may_collide(&self, a: u32, b: u32) -> bool {
+        if a == b {
+            self.settings[a as usize].self_collision
+        } else {
+            !self.is_excluded(a, b)
+        }
+    }
+
+    /// Whether a candidate involves only kinematic particles.
+    fn all_kinematic(ids: &[u32], inv_mass: &[f64]) -> bool {
+        ids.iter().all(|&i| inv_mass[i as usize] == 0.0)
+    }
+
+    /// Refits the trees to the swept boxes over `[x0, x]` (grown by a margin) and collects the
+    /// candidate pairs, sorted; remaps the existing contacts onto them.
+    fn broad_phase(&mut self, x0: &[DVec3], x: &[DVec3], inv_mass: &[f64]) {
+        self.stats.broad_phases += 1;
+        for i in 0..self.verts.len() {
+            let r = self.radius(self.vert_obj[i]);
+            self.vert_boxes[i] = self.vert_box(i, x0, x).grow(margin(r));
+        }
+        for i in 0..self.edges.len() {
+            let r = self.radius(self.edge_obj[i]);
+            self.edge_boxes[i] = self.edge_box(i, x0, x).grow(margin(r));
+        }
+        for i in 0..self.faces.len() {
+            let r = self.radius(self.face_obj[i]);
+            self.face_boxes[i] = self.face_box(i, x0, x).grow(margin(r));
+        }
+        self.edge_bvh.refit(&self.edge_boxes);
+        self.face_bvh.refit(&self.face_boxes);
+        self.candidates.clear();
+        let mut stack = std::mem::take(&mut self.stack);
+        let mut candidates = std::mem::take(&mut self.candidates);
+
+        // Vertex–face.
+        if !self.faces.is_empty() {
+            for i in 0..self.verts.len() {
+                let p = self.verts[i];
+                let po = self.vert_obj[i];
+                let d_p = self.radius(po);
+                self.face_bvh
+                    .query(&self.vert_boxes[i], &self.face_boxes, &mut stack, |f| {
+                        let tri = self.faces[f as usize];
+                        let fo = self.face_obj[f as usize];
+                        if tri.contains(&p) || !self.objects_may_collide(po, fo) {
+                            return;
+                        }
+                        if Self::all_kinematic(&[p, tri[0], tri[1], tri[2]], inv_mass) {
+                            return;
+                        }
+                        if po == fo {
+                            let r = &self.rest;
+                            let (_, d2) = distance::point_triangle_closest(
+                                r[p as usize],
+                                r[tri[0] as usize],
+                                r[tri[1] as usize],
+                                r[tri[2] as usize],
+                            );
+                            let d = d_p + self.radius(fo);
+                            if d2 < d * d {
+                                return;
+                            }
+                        }
+                        candidates.push(Candidate {
+                            kind: PairKind::VertexFace,
+                            pair: [i as u32, f],
+                        });
+                    });
+            }
+        }
+        // Edge–edge.
+        for i in 0..self.edges.len() {
+            let e = self.edges[i];
+            let eo = self.edge_obj[i];
+            self.edge_bvh
+                .query(&self.edge_boxes[i], &self.edge_boxes, &mut stack, |j| {
+                    if j as usize <= i {
+                        return;
+                    }
+                    let f = self.edges[j as usize];
+                    let fo = self.edge_obj[j as usize];
+                    if f.contains(&e[0]) || f.contains(&e[1]) || !self.objects_may_collide(eo, fo)
+                    {
+                        return;
+                    }
+                    if Self::all_kinematic(&[e[0], e[1], f[0], f[1]], inv_mass) {
+                        return;
+                    }
+                    if eo == fo {
+                        let r = &self.rest;
+                        let (_, _, d2) = distance::segment_segment_closest(
+                            r[e[0] as usize],
+                            r[e[1] as usize],
+                            r[f[0] as usize],
+                            r[f[1] as usize],
+                        );
+                        let d = self.radius(eo) + self.radius(fo);
+                        if d2 < d * d {
+                            return;
+                        }
+                    }
+                    candidates.push(Candidate {
+                        kind: PairKind::EdgeEdge,
+                        pair: [i as u32, j],
+                    });
+                });
+        }
+        // Particle–curve edge.
+        for &k in &self.isolated {
+            let i = k as usize;
+            let p = self.verts[i];
+            let po = self.vert_obj[i];
+            self.edge_bvh
+                .query(&self.vert_boxes[i], &self.edge_boxes, &mut stack, |j| {
+                    let f = self.edges[j as usize];
+                    let fo = self.edge_obj[j as usize];
+                    if !self.edge_curve[j as usize]
+                        || f.contains(&p)
+                        || !self.objects_may_collide(po, fo)
+                        || Self::all_kinematic(&[p, f[0], f[1]], inv_mass)
+                    {
+                        return;
+                    }
+                    candidates.push(Candidate {
+                        kind: PairKind::VertexEdge,
+                        pair: [k, j],
+                    });
+                });
+        }
+        // Particle–particle, through the hash grid.
+        if self.isolated.len() > 1 {
+            for (b, &k) in self.iso_boxes.iter_mut().zip(&self.isolated) {
+                *b = self.vert_boxes[k as usize];
+            }
+            let mut iso_pairs = std::mem::take(&mut self.iso_pairs);
+            self.grid.pairs(&self.iso_boxes, &mut iso_pairs);
+            for &[a, b] in &iso_pairs {
+                let (i, j) = (self.isolated[a as usize], self.isolated[b as usize]);
+                let (p, q) = (self.verts[i as usize], self.verts[j as usize]);
+                let (po, qo) = (self.vert_obj[i as usize], self.vert_obj[j as usize]);
+                if !self.objects_may_collide(po, qo) || Self::all_kinematic(&[p, q], inv_mass) {
+                    continue;
+                }
+                if po == qo {
+                    let d = self.radius(po) + self.radius(qo);
+                    if self.rest[p as usize].distance_squared(self.rest[q as usize]) < d * d {
+                        continue;
+                    }
+                }
+                candidates.push(Candidate {
+                    kind: PairKind::VertexVertex,
+                    pair: [i, j],
+                });
+            }
+            self.iso_pairs = iso_pairs;
+        }
+        // Vertex–collider.
+        for c in 0..self.colliders.len() {
+            let cb = self.collider_boxes[c];
+            for i in 0..self.verts.len() {
+                if inv_mass[self.verts[i] as usize] > 0.0 && self.vert_boxes[i].overlaps(&cb) {
+                    candidates.push(Candidate {
+                        kind: PairKind::Collider,
+                        pair: [c as u32, i as u32],
+                    });
+                }
+            }
+        }
+        candidates.sort_unstable();
+        self.candidates = candidates;
+        self.stack = stack;
+        self.stats.candidates = self.stats.candidates.max(self.candidates.len());
+
+        // Existing contacts keep their slot.
+        self.contact_of.clear();
+        self.contact_of.resize(self.candidates.len(), NONE);
+        for (k, c) in self.contacts.iter().enumerate() {
+            let key = Candidate {
+                kind: c.kind,
+                pair: c.pair,
+            };
+            if let Ok(at) = self.candidates.binary_search(&key) {
+                self.contact_of[at] = k as u32;
+            }
+        }
+    }
+
+    /// Whether some primitive's tight swept box left the box the candidates were found with.
+    fn escaped(&self, x0: &[DVec3], x: &[DVec3]) -> bool {
+        (0..self.verts.len()).any(|i| !self.vert_boxes[i].contains(&self.vert_box(i, x0, x)))
+            || (0..self.edges.len())
+                .any(|i| !self.edge_boxes[i].contains(&self.edge_box(i, x0, x)))
+            || (0..self.faces.len())
+                .any(|i| !self.face_boxes[i].contains(&self.face_box(i, x0, x)))
+    }
+
+    /// World boxes of the colliders over the substep (their rest-frame bounds, grown by
+    /// every thickness in play, at both poses; a rotating shape is bounded by its bounding
+    /// sphere about its pivot-independent centre).
+    fn collider_bounds(&mut self) {
+        let max_r = self
+            .settings
+            .iter()
+            .map(|s| s.thickness)
+            .fold(0.0, f64::max);
+        for (c, col) in self.colliders.iter().enumerate() {
+            let (lo, hi) = col.shape.bounds(col.thickness + max_r);
+            if !lo.is_finite() || !hi.is_finite() {
+                self.collider_boxes[c] = Aabb {
+                    min: DVec3::splat(f64::NEG_INFINITY),
+                    max: DVec3::splat(f64::INFINITY),
+                };
+                continue;
+            }
+            let center = 0.5 * (lo + hi);
+            let r = 0.5 * (hi - lo).length();
+            let mut b = Aabb::EMPTY;
+            for pose in [self.pose0[c], self.pose1[c]] {
+                b = b.union(Aabb::of_points(&[pose.apply(center)], r));
+            }
+            self.collider_boxes[c] = b;
+        }
+    }
+
+    // ------------------------------------------------------------------------------------
+    // Narrow phase
+    // ------------------------------------------------------------------------------------
+
+    /// The contact of a candidate if the pair comes within `thickness_scale ×` its distance
+    /// over `[x0, x]` (`thickness_scale = 0`: the pair crosses).
+    fn detect(
+        &self,
+        cand: Candidate,
+        x0: &[DVec3],
+        x: &[DVec3],
+        thickness_scale: f64,
+    ) -> Option<Contact> {
+        let track = |i: u32| Track {
+            x0: x0[i as usize],
+            x1: x[i as usize],
+        };
+        let [a, b] = cand.pair;
+        match cand.kind {
+            PairKind::VertexFace => {
+                let (v, f) = (a as usize, b as usize);
+                let p = self.verts[v];
+                let t = self.faces[f];
+                let d = thickness_scale * (self.radius(self.vert_obj[v]) + self.radius(self.face_obj[f]));
+                let ids = [p, t[0], t[1], t[2]];
+                pairs::vertex_face(cand.pair, ids, &ids.map(track), d)
+            }
+            PairKind::EdgeEdge => {
+                let (e, f) = (self.edges[a as usize], self.edges[b as usize]);
+                let d = thickness_scale
+                    * (self.radius(self.edge_obj[a as usize]) + self.radius(self.edge_obj[b as usize]));
+                let ids = [e[0], e[1], f[0], f[1]];
+                pairs::edge_edge(cand.pair, ids, &ids.map(track), d)
+            }
+            PairKind::VertexEdge => {
+                let p = self.verts[a as usize];
+                let f = self.edges[b as usize];
+                let d = thickness_scale
+                    * (self.radius(self.vert_obj[a as usize]) + self.radius(self.edge_obj[b as usize]));
+                let ids = [p, p, f[0], f[1]];
+                pairs::vertex_edge(cand.pair, ids, &ids.map(track), d)
+            }
+            PairKind::VertexVertex => {
+                let (p, q) = (self.verts[a as usize], self.verts[b as usize]);
+                let d = thickness_scale
+                    * (self.radius(self.vert_obj[a as usize]) + self.radius(self.vert_obj[b as usize]));
+                let ids = [p, q, p, p];
+                pairs::vertex_vertex(cand.pair, ids, &ids.map(track), d)
+            }
+            PairKind::Collider => {
+                let (c, v) = (a as usize, b as usize);
+                let p = self.verts[v] as usize;
+                let col = &self.colliders[c];
+                let r = thickness_scale * (self.radius(self.vert_obj[v]) + col.thickness);
+                let (pose0, pose1) = (self.pose0[c], self.pose1[c]);
+                let q0 = pose0.inverse_apply(x0[p]);
+                let q1 = pose1.inverse_apply(x[p]);
+                let t = first_contact(&col.shape, q0, q1, r)?;
+                let qt = q0.lerp(q1, t);
+                let (phi, n_local) = col.shape.signed_distance(qt);
+                let surface = qt - phi * n_local;
+                let n = pose1.rotate(n_local);
+                let s1 = pose1.apply(surface);
+                Some(Contact {
+                    kind: PairKind::Collider,
+                    pair: cand.pair,
+                    ids: [p as u32; 4],
+                    w: [1.0, 0.0, 0.0, 0.0],
+                    n,
+                    offset: n.dot(s1) + r,
+                    collider_disp: s1 - pose0.apply(surface),
+                    dn: 0.0,
+                })
+            }
+        }
+    }
+
+    /// Whether the tight swept boxes of a candidate's primitives overlap.
+    fn boxes_overlap(&self, cand: Candidate, x0: &[DVec3], x: &[DVec3]) -> bool {
+        let [a, b] = cand.pair;
+        let (a, b) = (a as usize, b as usize);
+        match cand.kind {
+            PairKind::VertexFace => self.vert_box(a, x0, x).overlaps(&self.face_box(b, x0, x)),
+            PairKind::EdgeEdge => self.edge_box(a, x0, x).overlaps(&self.edge_box(b, x0, x)),
+            PairKind::VertexEdge => self.vert_box(a, x0, x).overlaps(&self.edge_box(b, x0, x)),
+            PairKind::VertexVertex => self.vert_box(a, x0, x).overlaps(&self.vert_box(b, x0, x)),
+            PairKind::Collider => true,
+        }
+    }
+
+    /// One Gauss-Seidel pass: re-project the contacts found so far, then run the continuous
+    /// test on every candidate and project each new contact at once.
+    fn resolve_pass(&mut self, x0: &[DVec3], x: &mut [DVec3], inv_mass: &[f64]) {
+        for c in &mut self.contacts {
+            c.project(x, inv_mass);
+        }
+        for k in 0..self.candidates.len() {
+            let cand = self.candidates[k];
+            if !self.boxes_overlap(cand, x0, x) {
+                continue;
+            }
+            let Some(mut contact) = self.detect(cand, x0, x, 1.0) else {
+                continue;
+            };
+            let slot = self.contact_of[k];
+            if slot == NONE {
+                self.contact_of[k] = self.contacts.len() as u32;
+                contact.project(x, inv_mass);
+                self.contacts.push(contact);
+            } else {
+                let old = &mut self.contacts[slot as usize];
+                contact.dn = old.dn;
+                contact.project(x, inv_mass);
+                *old = contact;
+            }
+        }
+    }
+
+    /// Pushes every vertex out of the analytic colliders (exact signed-distance projection at
+    /// the end of the substep).
+    fn project_out_of_colliders(&self, x: &mut [DVec3], inv_mass: &[f64]) {
+        for cand in &self.candidates {
+            if cand.kind != PairKind::Collider {
+                continue;
+            }
+            let (c, v) = (cand.pair[0] as usize, cand.pair[1] as usize);
+            let p = self.verts[v] as usize;
+            if inv_mass[p] == 0.0 {
+                continue;
+            }
+            let col = &self.colliders[c];
+            let r = self.radius(self.vert_obj[v]) + col.thickness;
+            let pose = self.pose1[c];
+            let q = pose.inverse_apply(x[p]);
+            let (phi, n) = col.shape.signed_distance(q);
+            if phi < r {
+                x[p] = pose.apply(q + (r - phi) * n);
+            }
+        }
+    }
+
+    /// Where the fail-safe puts a frozen particle: its start, carried by the rigid motion of
+    /// its carrier (a fully kinematic object) over the substep.
+    fn carried(&self, carrier: u32, p: usize, x0: &[DVec3], x: &[DVec3]) -> DVec3 {
+        if carrier == CARRY_STILL {
+            return x0[p];
+        }
+        let Some([a, b, c]) = self.rigid_frame[carrier as usize] else {
+            return x0[p];
+        };
+        let (a, b, c) = (a as usize, b as usize, c as usize);
+        let f0 = frame(x0[a], x0[b], x0[c]);
+        let f1 = frame(x[a], x[b], x[c]);
+        match (f0, f1) {
+            (Some(f0), Some(f1)) => x[a] + f1 * (f0.transpose() * (x0[p] - x0[a])),
+            _ => x0[p] + (x[a] - x0[a]),
+        }
+    }
+
+    /// The fail-safe: while some pair still *crosses* over `[x0, x]` (a continuous test with
+    /// zero thickness), freeze its dynamic particles — put them back where they started the
+    /// substep, carried by the rigid motion of a kinematic object they hit. The start of the
+    /// substep is crossing-free, so every round either resolves the remaining crossings or
+    /// freezes a new particle: at most one round per particle. Returns the pairs left crossing.
+    fn fail_safe(&mut self, x0: &[DVec3], x: &mut [DVec3], inv_mass: &[f64]) -> usize {
+        loop {
+            if self.escaped(x0, x) {
+                self.broad_phase(x0, x, inv_mass);
+            }
+            let mut crossing = 0;
+            let mut froze = false;
+            for k in 0..self.candidates.len() {
+                let cand = self.candidates[k];
+                if cand.kind == PairKind::Collider || !self.boxes_overlap(cand, x0, x) {
+                    continue;
+                }
+                let Some(c) = self.detect(cand, x0, x, 0.0) else {
+                    continue;
+                };
+                crossing += 1;
+                let carrier = c
+                    .ids
+                    .iter()
+                    .zip(&c.w)
+                    .find(|(&i, &w)| w != 0.0 && inv_mass[i as usize] == 0.0)
+                    .map(|(&i, _)| self.object_of_particle(i))
+                    .unwrap_or(CARRY_STILL);
+                for (&i, &w) in c.ids.iter().zip(&c.w) {
+                    let i = i as usize;
+                    if w == 0.0 && c.kind != PairKind::VertexFace && c.kind != PairKind::EdgeEdge {
+                        continue;
+                    }
+                    if inv_mass[i] > 0.0 && self.carrier[i] == NONE {
+                        self.carrier[i] = carrier;
+                        self.frozen_list.push(i as u32);
+                        x[i] = self.carried(carrier, i, x0, x);
+                        froze = true;
+                        self.stats.frozen += 1;
+                    }
+                }
+            }
+            if crossing == 0 || !froze {
+                return crossing;
+            }
+        }
+    }
+
+    /// The local object of a kinematic particle, as a carrier (`CARRY_STILL` if the object
+    /// does not move rigidly).
+    fn object_of_particle(&self, p: u32) -> u32 {
+        // Primitives are grouped by object; vertices are sorted within each object.
+        match self.verts.iter().position(|&v| v == p) {
+            Some(i) => {
+                let o = self.vert_obj[i];
+                if self.rigid_frame[o as usize].is_some() {
+                    o
+                } else {
+                    CARRY_STILL
+                }
+            }
+            None => CARRY_STILL,
+        }
+    }
+
+    fn check_state(&self, len: usize) -> Result<(), PluginError> {
+        if len < self.x_pred.len() {
+            return Err(PluginError::failed(format!(
+                "the group was built for {} particles but the state has {len}",
+                self.x_pred.len()
+            )));
+        }
+        Ok(())
+    }
+
+    /// Deepest thickness violation over the contacts and the colliders at positions `x` (m).
+    fn penetration(&self, x: &[DVec3], poses: &[Pose]) -> f64 {
+        let mut worst: f64 = 0.0;
+        for c in &self.contacts {
+            if c.kind != PairKind::Collider {
+                let (_, d2) = self.current_distance(c, x);
+                worst = worst.max(c.offset - d2.sqrt());
+            }
+        }
+        for cand in &self.candidates {
+            if cand.kind == PairKind::Collider {
+                let (c, v) = (cand.pair[0] as usize, cand.pair[1] as usize);
+                let p = self.verts[v] as usize;
+                let col = &self.colliders[c];
+                let r = self.radius(self.vert_obj[v]) + col.thickness;
+                let (phi, _) = col.shape.signed_distance(poses[c].inverse_apply(x[p]));
+                worst = worst.max(r - phi);
+            }
+        }
+        worst
+    }
+
+    /// `(unused, squared distance)` between a mesh contact's two primitives at `x`.
+    fn current_distance(&self, c: &Contact, x: &[DVec3]) -> ((), f64) {
+        let g = |k: usize| x[c.ids[k] as usize];
+        let d2 = match c.kind {
+            PairKind::VertexFace => distance::point_triangle_closest(g(0), g(1), g(2), g(3)).1,
+            PairKind::EdgeEdge => distance::segment_segment_closest(g(0), g(1), g(2), g(3)).2,
+            PairKind::VertexEdge => distance::point_segment_closest(g(0), g(2), g(3)).1,
+            PairKind::VertexVertex => g(0).distance_squared(g(1)),
+            PairKind::Collider => f64::INFINITY,
+        };
+        ((), d2)
+    }
+}
+
+/// An orthonormal frame (columns) from three points, `None` if they are (nearly) collinear.
+fn frame(a: DVec3, b: DVec3, c: DVec3) -> Option<glam::DMat3> {
+    let e1 = (b - a).try_normalize()?;
+    let u = c - a;
+    let e2 = (u - e1 * e1.dot(u)).try_normalize()?;
+    Some(glam::DMat3::from_cols(e1, e2, e1.cross(e2)))
+}
+
+/// Three vertices of `verts` spanning a well-shaped frame in the rest pose.
+fn frame_vertices(rest: &[DVec3], verts: &[u32]) -> Option<[u32; 3]> {
+    let &a = verts.first()?;
+    let pa = rest[a as usize];
+    let &b = verts
+        .iter()
+        .max_by(|&&i, &&j| {
+            pa.distance_squared(rest[i as usize])
+                .total_cmp(&pa.distance_squared(rest[j as usize]))
+        })?;
+    let pb = rest[b as usize];
+    let &c = verts.iter().max_by(|&&i, &&j| {
+        let area = |k: u32| (pb - pa).cross(rest[k as usize] - pa).length_squared();
+        area(i).total_cmp(&area(j))
+    })?;
+    let area = (pb - pa).cross(rest[c as usize] - pa).length();
+    (area > 1e-12 && frame(pa, pb, rest[c as usize]).is_some()).then_some([a, b, c])
+}
+
+impl ConstraintGroup for CollisionGroup {
+    fn stages(&self) -> Stages {
+        Stages::BEGIN_SUBSTEP | Stages::PROJECT | Stages::END_SUBSTEP | Stages::REPORT
+    }
+
+    /// The number of collision primitives (vertices, edges, faces and colliders), or 0 when
+    /// no pair can ever collide: then the core never schedules the group.
+    fn len(&self) -> usize {
+        if self.active {
+            self.verts.len() + self.edges.len() + self.faces.len() + self.colliders.len()
+        } else {
+            0
+        }
+    }
+
+    /// Saves the predicted positions, poses the colliders at both ends of the substep, and
+    /// runs the broad phase over the swept primitives.
+    fn begin_substep(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
+        if ctx.frame != self.stats.frame {
+            self.stats = FrameStats {
+                frame: ctx.frame,
+                ..FrameStats::default()
+            };
+        }
+        let (h, time) = (ctx.h, ctx.time);
+        let p = ctx.particles();
+        self.check_state(p.x.len().min(p.x0.len()).min(p.inv_mass.len()))?;
+        let n = self.x_pred.len();
+        self.x_pred.copy_from_slice(&p.x[..n]);
+        self.h = h;
+        for (c, col) in self.colliders.iter().enumerate() {
+            self.pose0[c] = col.motion.pose(time);
+            self.pose1[c] = col.motion.pose(time + h);
+        }
+        self.collider_bounds();
+        for &i in &self.frozen_list {
+            self.carrier[i as usize] = NONE;
+        }
+        self.frozen_list.clear();
+        self.contacts.clear();
+        self.broad_phase(p.x0, p.x, p.inv_mass);
+        Ok(())
+    }
+
+    /// One pass of detection and resolution; the last pass of the substep also applies
+    /// friction, projects out of the analytic colliders and runs the fail-safe.
+    fn project(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
+        let last = ctx.pass + 1 >= ctx.passes;
+        let p = ctx.particles();
+        self.check_state(p.x.len().min(p.x0.len()).min(p.inv_mass.len()))?;
+        let (x0, x, w) = (p.x0, p.x, p.inv_mass);
+        if self.escaped(x0, x) {
+            self.broad_phase(x0, x, w);
+        }
+        self.resolve_pass(x0, x, w);
+        if last {
+            for c in &self.contacts {
+                c.friction(x, x0, w, self.mu_static, self.mu_dynamic);
+            }
+            self.project_out_of_colliders(x, w);
+            let unresolved = self.fail_safe(x0, x, w);
+            self.stats.unresolved += unresolved;
+            self.stats.contacts = self.stats.contacts.max(self.contacts.len());
+        }
+        Ok(())
+    }
+
+    /// Restitution: contacts that worked this substep and were approaching faster than
+    /// `2|g|h` leave with `−e` times their approach speed.
+    fn end_substep(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
+        let h = ctx.h;
+        let threshold = 2.0 * ctx.gravity().length() * h;
+        let p = ctx.particles();
+        self.check_state(p.x.len().min(p.x0.len()).min(p.inv_mass.len()))?;
+        let pen = self.penetration(p.x, &self.pose1);
+        self.stats.max_penetration = self.stats.max_penetration.max(pen);
+        if self.restitution <= 0.0 || self.contacts.is_empty() || h <= 0.0 {
+            return Ok(());
+        }
+        for (vp, (&xp, &x0)) in self.v_pre.iter_mut().zip(self.x_pred.iter().zip(p.x0)) {
+            *vp = (xp - x0) / h;
+        }
+        for c in &self.contacts {
+            let collider_v = c.collider_disp / h;
+            c.restitution(p.v, &self.v_pre, p.inv_mass, self.restitution, threshold, collider_v);
+        }
+        Ok(())
+    }
+
+    /// The deepest violation of the thickness (m) over the contacts of the last substep and
+    /// the vertices near colliders, at the current positions.
+    fn residual(&self, ctx: &SolveContext<'_>) -> Residual {
+        let x = ctx.positions();
+        if x.len() < self.x_pred.len() {
+            return Residual::default();
+        }
+        let poses: Vec<Pose> = self.colliders.iter().map(|c| c.motion.pose(ctx.time)).collect();
+        let max = self.penetration(x, &poses);
+        Residual {
+            count: self.contacts.len() as u64,
+            max,
+            rms: max,
+            energy: 0.0,
+        }
+    }
+
+    fn report(&self, _ctx: &SolveContext<'_>, out: &mut Vec<(String, f64)>) {
+        let s = self.stats;
+        out.push(("contacts".into(), s.contacts as f64));
+        out.push(("candidates".into(), s.candidates as f64));
+        out.push(("broad_phases".into(), s.broad_phases as f64));
+        out.push(("frozen".into(), s.frozen as f64));
+        out.push(("unresolved".into(), s.unresolved as f64));
+        out.push(("max_penetration".into(), s.max_penetration));
+    }
+}
+
+/// The factory of the `collision` kind.
+pub(crate) fn build(
+    params_json: &str,
+    scene: &SceneView<'_>,
+) -> Result<Box<dyn ConstraintGroup>, PluginError> {
+    let params = CollisionParams::parse(params_json)?;
+    Ok(Box::new(CollisionGroup::new(&params, scene)?))
+}
