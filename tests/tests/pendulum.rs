@@ -13,39 +13,32 @@
 //! over 10 swings, from the first to the 21st zero crossing of the bob's `x` (crossing times
 //! interpolated linearly within a substep), and must be within 0.5% of `T` at 60 frames/s.
 //!
-//! Projecting a hard link removes the velocity component along it that the prediction
-//! `x0 + h v` gained, which drains energy at a rate of order `h`; a lower swing is a shorter
-//! swing, so the error shrinks with the substep. Measured at 60 frames/s (signed relative
-//! error of the 10-swing period):
+//! The stretch plugin corrects each edge along its direction at the start of the substep
+//! (SHAKE), which makes the hard link an energy-conserving, second-order integrator of the
+//! constrained motion: the error falls by 4 when the substep halves. Measured at 60 frames/s
+//! (signed relative error of the 10-swing period; iterations = passes per substep):
 //!
 //! ```text
-//! substeps  h (ms)   period error
-//!     1     16.7     −13.23%
-//!     4      4.17     −9.00%
-//!    10      1.67     −5.59%
-//!    20      0.833    −3.46%
-//!    50      0.333    −1.63%
-//!   100      0.167    −0.868%
-//!   150      0.111    −0.591%
-//!   175      0.0952   −0.510%
-//!   178      0.0936   −0.502%
-//!   180      0.0926   −0.496%   ← the fewest within 0.5%
-//!   200      0.0833   −0.449%
-//!   400      0.0417   −0.228%
-//!  1000      0.0167   −0.092%
+//! substeps × iterations   h (ms)   period error
+//!     1 × 3               16.7     −0.0312%   ← one substep per frame is enough
+//!     2 × 3                8.33    −0.00779%
+//!     4 × 3                4.17    −0.00195%
+//!    10 × 1                1.67    −0.00031%
+//!    20 × 1                0.833   −0.00008%
+//!    40 × 1                0.417   −0.00002%
 //! ```
 //!
-//! The error is first order in `h` (about −0.9%/(substeps/100)) and always negative: the
-//! pendulum runs fast because it loses amplitude. 180 substeps per frame is the fewest that
-//! reach 0.5%; the test asserts at 200, which keeps a margin above the threshold and still
-//! costs little (the 24 s of simulated swinging, 290,000 substeps of one edge, take about
-//! 0.02 s), and checks the first-order convergence separately.
+//! (Before, with corrections along the current edge direction, the projection drained energy
+//! at first order: −5.6% at 10 substeps, and 180 substeps per frame were needed for 0.5%.)
+//! At one substep per frame the single Newton step along the start direction leaves the link
+//! ~2e-7 m long, so the asserted configuration uses 3 passes, which bring it below 1e-9 m.
 
 use nucleus_core::Simulation;
 use nucleus_tests::*;
 
-/// Substeps per frame of the asserted configuration (180 is the fewest within 0.5%).
-const SUBSTEPS: u32 = 200;
+/// Substeps per frame and passes per substep of the asserted configuration.
+const SUBSTEPS: u32 = 1;
+const ITERATIONS: u32 = 3;
 
 const L: f64 = 1.0;
 const G: f64 = 9.81;
@@ -66,13 +59,13 @@ fn exact_period(l: f64, g: f64, theta0: f64) -> f64 {
     4.0 * (l / g).sqrt() * big_k
 }
 
-fn pendulum(substeps: u32) -> Simulation {
+fn pendulum(substeps: u32, iterations: u32) -> Simulation {
     let text = format!(
         r#"
 [solver]
 frame_rate = {FRAME_RATE:?}
 substeps = {substeps}
-iterations = 1
+iterations = {iterations}
 gravity = [0.0, {gy:?}, 0.0]
 damping = 0.0
 
@@ -96,8 +89,8 @@ params = {{ compliance = 0.0 }}
 
 /// The period measured over `swings` swings: the time from the first to the
 /// `(2 swings + 1)`-th zero crossing of the bob's x, divided by `swings`.
-fn measured_period(substeps: u32, swings: usize) -> f64 {
-    let mut sim = pendulum(substeps);
+fn measured_period(substeps: u32, iterations: u32, swings: usize) -> f64 {
+    let mut sim = pendulum(substeps, iterations);
     let crossings_needed = 2 * swings + 1;
     let mut crossings = Vec::with_capacity(crossings_needed);
     let limit = 1.5 * exact_period(L, G, std::f64::consts::FRAC_PI_2) * (swings as f64 + 1.0);
@@ -139,30 +132,30 @@ fn exact_period_matches_known_values() {
 #[test]
 fn hard_link_swings_with_the_exact_large_amplitude_period() {
     let exact = exact_period(L, G, std::f64::consts::FRAC_PI_2);
-    let measured = measured_period(SUBSTEPS, 10);
+    let measured = measured_period(SUBSTEPS, ITERATIONS, 10);
     let error = (measured - exact) / exact;
     assert!(
         error.abs() < 0.005,
-        "{SUBSTEPS} substeps at {FRAME_RATE} frames/s: period {measured} s, exact {exact} s, error {:.3}%",
+        "{SUBSTEPS} substeps × {ITERATIONS} at {FRAME_RATE} frames/s: period {measured} s, exact {exact} s, error {:.3}%",
         100.0 * error
     );
 }
 
 #[test]
-fn period_error_halves_with_the_substep() {
+fn period_error_falls_fourfold_when_the_substep_halves() {
     let exact = exact_period(L, G, std::f64::consts::FRAC_PI_2);
-    let errors: Vec<f64> = [20, 40, 80]
+    let errors: Vec<f64> = [10, 20, 40]
         .iter()
-        .map(|&n| (measured_period(n, 10) - exact) / exact)
+        .map(|&n| (measured_period(n, 1, 10) - exact) / exact)
         .collect();
     for (k, pair) in errors.windows(2).enumerate() {
         let ratio = pair[0] / pair[1];
         assert!(
-            pair[0] < 0.0 && pair[1] < 0.0 && (1.5..2.5).contains(&ratio),
-            "doubling the substeps from {} to {} took the period error from {:.3}% to {:.3}% \
-             (ratio {ratio:.2}; first order expects about 2)",
+            pair[0] < 0.0 && pair[1] < 0.0 && (3.0..5.0).contains(&ratio),
+            "doubling the substeps from {} to {} took the period error from {:.5}% to {:.5}% \
+             (ratio {ratio:.2}; second order expects about 4)",
+            10 << k,
             20 << k,
-            40 << k,
             100.0 * pair[0],
             100.0 * pair[1]
         );

@@ -70,18 +70,40 @@ pub fn distance_constraint(xi: DVec3, xj: DVec3, rest: f64) -> Option<(f64, DVec
     Some((len - rest, d / len))
 }
 
+/// The direction of the correction: the edge's direction at the start of the substep when it
+/// is defined and within 60° of the current one `n`, else `n`.
+#[inline]
+pub fn start_direction(x0: [DVec3; 2], n: DVec3) -> DVec3 {
+    let e0 = x0[1] - x0[0];
+    let len0 = e0.length();
+    if len0 >= MIN_LENGTH && len0.is_finite() {
+        let d = e0 / len0;
+        if n.dot(d) >= 0.5 {
+            return d;
+        }
+    }
+    n
+}
+
 /// One XPBD step on the edge between `x = [xi, xj]` with inverse masses `w = [wi, wj]`,
 /// given the edge's multiplier `lambda` accumulated so far in this substep of length `h`.
 ///
 /// With `α = material.compliance_for(C)`, `α̃ = α/h²` and `γ = α·c/h` (`c` the damping):
 ///
 /// ```text
-/// Δλ = (−C − α̃λ − γ ∇C·(x − x0)) / ((1 + γ)(wi + wj) + α̃)
-/// Δxi = −wi n Δλ,   Δxj = +wj n Δλ
+/// Δλ = (−C − α̃λ − γ ∇C·(x − x0)) / ((1 + γ)(wi + wj)(n·d) + α̃)
+/// Δxi = −wi d Δλ,   Δxj = +wj d Δλ
 /// ```
 ///
-/// `x0 = [xi0, xj0]` are the positions at the start of the substep; they are read only when
-/// the damping is positive, so an undamped caller may pass `x` again.
+/// The correction moves along `d`, the edge's direction at the start of the substep
+/// `(xj0 − xi0)/|xj0 − xi0|` (as SHAKE does), not along the current gradient `n`: with the
+/// velocity update `v = (x − x0)/h`, a correction changes the angular momentum by
+/// `Δλ (xj0 − xi0) × d / h`, which vanishes only for `d ∥ xj0 − xi0`. So every step conserves
+/// linear *and* angular momentum exactly, and the Newton step along `d` uses the directional
+/// derivative `(wi + wj)(n·d)`. Where the edge turned by more than 60° within the substep
+/// (`n·d < ½`) or had no length at its start, `d = n` (the plain XPBD step).
+///
+/// `x0 = [xi0, xj0]` are the positions at the start of the substep.
 ///
 /// `None` when the edge cannot be projected: its particles (nearly) coincide, so the gradient
 /// is undefined, or both have infinite mass. Never returns NaN for finite input.
@@ -100,6 +122,8 @@ pub fn project_distance(
     if w_sum.is_nan() || w_sum <= 0.0 {
         return None;
     }
+    let d = start_direction(x0, n);
+    let w_sum = w_sum * n.dot(d);
     let alpha = material.compliance_for(c);
     let gamma = if material.damping > 0.0 {
         alpha * material.damping / h
@@ -114,7 +138,7 @@ pub fn project_distance(
     } else {
         xpbd::delta_lambda(c, w_sum, alpha, lambda, h)
     };
-    let step = n * delta_lambda;
+    let step = d * delta_lambda;
     Some(Correction {
         dxi: -w[0] * step,
         dxj: w[1] * step,
@@ -219,11 +243,31 @@ mod tests {
             let p_scale = mi * corr.dxi.length() + mj * corr.dxj.length();
             let p = mi * corr.dxi + mj * corr.dxj;
             assert!(p.length() <= 1e-12 * p_scale, "linear: {p} vs {p_scale}");
-            let l_scale =
-                mi * x[0].length() * corr.dxi.length() + mj * x[1].length() * corr.dxj.length();
-            let l = mi * x[0].cross(corr.dxi) + mj * x[1].cross(corr.dxj);
+            // With v = (x − x0)/h the step changes the angular momentum by
+            // Σ m x0 × Δx / h: zero when the correction runs along the start direction.
+            let l_scale = mi * x0[0].length() * corr.dxi.length()
+                + mj * x0[1].length() * corr.dxj.length();
+            let l = mi * x0[0].cross(corr.dxi) + mj * x0[1].cross(corr.dxj);
             assert!(l.length() <= 1e-12 * l_scale, "angular: {l} vs {l_scale}");
         }
+    }
+
+    #[test]
+    fn correction_falls_back_to_the_current_direction_after_a_large_turn() {
+        let x = [DVec3::ZERO, DVec3::new(0.0, 2.0, 0.0)];
+        let x0 = [DVec3::ZERO, DVec3::new(1.0, 0.0, 0.0)];
+        let corr = project_distance(x, x0, [1.0, 1.0], 1.0, &EdgeMaterial::HARD, 0.0, H).unwrap();
+        assert!(corr.dxj.x.abs() < 1e-15 && corr.dxj.y < 0.0);
+        // Within 60°, the start direction is used and the edge still reaches its length
+        // after a few passes (Newton along d).
+        let x0 = [DVec3::ZERO, DVec3::new(1.0, 0.2, 0.0)];
+        let mut x = [DVec3::ZERO, DVec3::new(0.3, 1.5, 0.0)];
+        for _ in 0..20 {
+            let c = project_distance(x, x0, [1.0, 1.0], 1.0, &EdgeMaterial::HARD, 0.0, H).unwrap();
+            x[0] += c.dxi;
+            x[1] += c.dxj;
+        }
+        assert!(((x[1] - x[0]).length() - 1.0).abs() < 1e-12);
     }
 
     #[test]

@@ -227,12 +227,11 @@ impl ConstraintGroup for StretchGroup {
         let p = ctx.particles();
         self.check_particles(p.x.len().min(p.x0.len()).min(p.inv_mass.len()))?;
         let (x, x0, w) = (p.x, p.x0, p.inv_mass);
-        let damped = self.material.damping > 0.0;
         let material = self.material;
         for ((&[i, j], &rest), lambda) in self.ids.iter().zip(&self.rest).zip(&mut self.lambda) {
             let (i, j) = (i as usize, j as usize);
             let (xi, xj) = (x[i], x[j]);
-            let start = if damped { [x0[i], x0[j]] } else { [xi, xj] };
+            let start = [x0[i], x0[j]];
             if let Some(c) =
                 project_distance([xi, xj], start, [w[i], w[j]], rest, &material, *lambda, h)
             {

@@ -25,14 +25,18 @@
 //! `C ≥ 0`, `compression_compliance` when `C < 0`; both in m/N) and `α̃ = α/h²`:
 //!
 //! ```text
-//! Δλ = (−C − α̃λ) / (wi + wj + α̃)
-//! Δxi = −wi n Δλ,   Δxj = +wj n Δλ,   λ ← λ + Δλ
+//! Δλ = (−C − α̃λ) / ((wi + wj)(n·d) + α̃)
+//! Δxi = −wi d Δλ,   Δxj = +wj d Δλ,   λ ← λ + Δλ
 //! ```
 //!
-//! computed by [`nucleus_sdk::xpbd::delta_lambda`]. `α = 0` is a hard constraint, solved
-//! exactly in one step for an isolated edge. Both corrections lie along the edge and are
-//! weighted by the inverse masses, so every step conserves linear and angular momentum, and a
-//! particle with inverse mass 0 never moves. The two compliances make the force a continuous,
+//! computed by [`nucleus_sdk::xpbd::delta_lambda`], where `d` is the edge's direction at the
+//! start of the substep (SHAKE; `d = n` if the edge turned by more than 60° or had no length).
+//! `α = 0` is a hard constraint. Both corrections are weighted by the inverse masses and lie
+//! along the start direction, so with `v = (x − x0)/h` every step conserves linear *and*
+//! angular momentum exactly (a correction along the current `n` changes `L` by
+//! `Δλ (x0j − x0i) × n / h`), and a hard link integrates its motion to second order without
+//! draining energy (the pendulum test: −0.03% period error at one substep per frame, against
+//! −13% for corrections along `n`). A particle with inverse mass 0 never moves. The two compliances make the force a continuous,
 //! monotone, piecewise-linear function of `C`, so the iteration stays well posed when an edge
 //! crosses its rest length between passes.
 //!
