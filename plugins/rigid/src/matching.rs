@@ -1,0 +1,1029 @@
+//! Shape matching (Müller, Heidelberger, Teschner, Gross 2005) as pure functions: the optimal
+//! rotation of a moment matrix, the rigid frame best fitting a body's particles (free or held
+//! by pinned particles), and one XPBD step of every particle toward its goal. The group in
+//! [`crate::group`] only loops over its bodies and calls [`fit_frame`] and [`project_goals`];
+//! everything numerical lives, and is tested, here.
+//!
+//! See the [crate docs](crate) for the theory.
+
+use glam::{DMat3, DQuat, DVec3};
+
+/// Relative tolerance below which two eigenvalues of Horn's matrix count as equal: the
+/// optimal rotation is then not unique (a collinear or single-point set) and the member of
+/// the optimal family nearest the hint is taken.
+pub const DEGENERATE_TOL: f64 = 1e-9;
+
+/// Relative tolerance under which pinned rest positions count as one point (or as collinear).
+pub const PIN_SHAPE_TOL: f64 = 1e-9;
+
+/// Jacobi sweeps before giving up (a 4 × 4 matrix converges in 3–6; the cap only guards
+/// against a pathological input looping forever).
+const MAX_SWEEPS: usize = 32;
+
+/// Horn's symmetric 4 × 4 matrix of a moment matrix `B = Σ mᵢ pᵢ rᵢᵀ` (`p` current, `r`
+/// rest): for a unit quaternion `q`, `qᵀ N q = tr(R(q)ᵀ B) = Σ mᵢ pᵢ·R(q) rᵢ`, so the
+/// rotation maximizing the fit is the eigenvector of `N`'s largest eigenvalue (Horn 1987).
+/// Quaternions are ordered `(w, x, y, z)`.
+pub fn horn_matrix(b: &DMat3) -> [[f64; 4]; 4] {
+    // S_ab = Σ m r_a p_b = B_ba = b.col(a)[b].
+    let s = |a: usize, c: usize| b.col(a)[c];
+    let (sxx, sxy, sxz) = (s(0, 0), s(0, 1), s(0, 2));
+    let (syx, syy, syz) = (s(1, 0), s(1, 1), s(1, 2));
+    let (szx, szy, szz) = (s(2, 0), s(2, 1), s(2, 2));
+    [
+        [sxx + syy + szz, syz - szy, szx - sxz, sxy - syx],
+        [syz - szy, sxx - syy - szz, sxy + syx, szx + sxz],
+        [szx - sxz, sxy + syx, -sxx + syy - szz, syz + szy],
+        [sxy - syx, szx + sxz, syz + szy, -sxx - syy + szz],
+    ]
+}
+
+/// Eigenvalues and orthonormal eigenvectors of a symmetric 4 × 4 matrix by cyclic Jacobi
+/// rotations: `values[k]` belongs to `vectors[k]`, unsorted. Accurate to a few ulps of the
+/// matrix norm, deterministic, no allocation. A non-finite input is returned as it came.
+#[allow(clippy::needless_range_loop)] // matrix code reads best with the indices of the maths
+pub fn symmetric_eigen4(m: [[f64; 4]; 4]) -> ([f64; 4], [[f64; 4]; 4]) {
+    let mut a = m;
+    // v[k] is the k-th eigenvector (the k-th column of V in A = V D Vᵀ).
+    let mut v = [[0.0; 4]; 4];
+    for (k, row) in v.iter_mut().enumerate() {
+        row[k] = 1.0;
+    }
+    let frob_sq: f64 = a.iter().flatten().map(|x| x * x).sum();
+    if !frob_sq.is_finite() {
+        return ([a[0][0], a[1][1], a[2][2], a[3][3]], v);
+    }
+    for _ in 0..MAX_SWEEPS {
+        let off_sq: f64 = (0..4)
+            .flat_map(|p| (p + 1..4).map(move |q| (p, q)))
+            .map(|(p, q)| a[p][q] * a[p][q])
+            .sum();
+        if off_sq <= (f64::EPSILON * f64::EPSILON) * frob_sq * 1e-2 || off_sq == 0.0 {
+            break;
+        }
+        for p in 0..3 {
+            for q in p + 1..4 {
+                let apq = a[p][q];
+                if apq == 0.0 {
+                    continue;
+                }
+                // Rotation zeroing a[p][q] (Numerical Recipes' `jacobi`).
+                let theta = (a[q][q] - a[p][p]) / (2.0 * apq);
+                let t = if theta.abs() > 1e150 {
+                    0.5 / theta
+                } else {
+                    theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt())
+                };
+                let c = 1.0 / (t * t + 1.0).sqrt();
+                let s = t * c;
+                a[p][p] -= t * apq;
+                a[q][q] += t * apq;
+                a[p][q] = 0.0;
+                a[q][p] = 0.0;
+                for r in 0..4 {
+                    if r != p && r != q {
+                        let (arp, arq) = (a[r][p], a[r][q]);
+                        a[r][p] = c * arp - s * arq;
+                        a[p][r] = a[r][p];
+                        a[r][q] = s * arp + c * arq;
+                        a[q][r] = a[r][q];
+                    }
+                }
+                // V ← V P: the components of eigenvectors p and q mix.
+                for r in 0..4 {
+                    let (vp, vq) = (v[p][r], v[q][r]);
+                    v[p][r] = c * vp - s * vq;
+                    v[q][r] = s * vp + c * vq;
+                }
+            }
+        }
+    }
+    ([a[0][0], a[1][1], a[2][2], a[3][3]], v)
+}
+
+/// The proper rotation `R` maximizing `tr(Rᵀ A) = Σ mᵢ pᵢ·R rᵢ` for the moment matrix
+/// `A = Σ mᵢ pᵢ rᵢᵀ`: the rotation of shape matching. When `det A > 0` it is the rotation
+/// factor of the polar decomposition `A = R S`; when the best orthogonal fit would be a
+/// reflection (an inverted body) it is the best *proper* rotation, as an SVD with reflection
+/// handling (`R = U diag(1, 1, det UVᵀ) Vᵀ`) gives. Never a reflection, never NaN.
+///
+/// Computed by Horn's quaternion method: the largest eigenvector of [`horn_matrix`], found by
+/// Jacobi on `Rₕᵀ A` (the matrix seen from the hint `Rₕ`, so a good hint leaves little to
+/// rotate). When the optimum is not unique — the largest eigenvalue repeated within
+/// [`DEGENERATE_TOL`], as for collinear particles, whose twist about their line is free — the
+/// member of the optimal family nearest the hint is returned (the hint's projection on the
+/// top eigenspace). `A = 0` (one particle, or all at one point) returns the hint. The result
+/// is in the hint's hemisphere (`q·hint ≥ 0`), so reported quaternions stay continuous.
+pub fn optimal_rotation(a: &DMat3, hint: DQuat) -> DQuat {
+    let hint = if hint.is_finite() && hint.length_squared() > 0.0 {
+        hint.normalize()
+    } else {
+        DQuat::IDENTITY
+    };
+    if !a.is_finite() {
+        return hint;
+    }
+    let b = DMat3::from_quat(hint).transpose() * *a;
+    let (values, vectors) = symmetric_eigen4(horn_matrix(&b));
+    let scale = values.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    if scale == 0.0 || !scale.is_finite() {
+        return hint;
+    }
+    let top = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    // Project the hint, the identity seen from the hint (1, 0, 0, 0), on the top eigenspace.
+    let mut q = [0.0; 4];
+    for (value, vector) in values.iter().zip(&vectors) {
+        if top - value <= DEGENERATE_TOL * scale {
+            let along = vector[0];
+            for k in 0..4 {
+                q[k] += along * vector[k];
+            }
+        }
+    }
+    let norm_sq: f64 = q.iter().map(|c| c * c).sum();
+    if norm_sq < 1e-12 {
+        // The hint is orthogonal to the optimal family (a half-turn away): take the top
+        // eigenvector itself.
+        let k = (0..4)
+            .max_by(|&i, &j| values[i].total_cmp(&values[j]))
+            .unwrap_or(0);
+        q = vectors[k];
+        if q[0] < 0.0 {
+            q = q.map(|c| -c);
+        }
+    }
+    let local = DQuat::from_xyzw(q[1], q[2], q[3], q[0]).normalize();
+    let r = (hint * local).normalize();
+    if r.dot(hint) < 0.0 {
+        -r
+    } else {
+        r
+    }
+}
+
+/// How a body's pinned (infinite-mass) particles hold its frame. Infinite masses dominate the
+/// weighted fit: the frame is the best fit *subject to* matching the pins, so a body pinned at
+/// one point pivots about it and a body pinned along a line hinges about it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Anchor {
+    /// No pinned particle: the mass-weighted fit of Müller et al.
+    Free,
+    /// The pins sit at one point: the frame's origin follows it; the rotation fits the free
+    /// particles about it.
+    Point,
+    /// The pins are collinear: the frame's origin follows their centroid and its rest axis
+    /// follows the line through pins `e0` and `e1` (offsets within the body); the twist about
+    /// that line fits the free particles.
+    Line {
+        /// Offset in the body of the first pin defining the axis.
+        e0: u32,
+        /// Offset in the body of the second pin defining the axis.
+        e1: u32,
+    },
+    /// Three or more pins span a plane: they alone fix the frame (their best fit).
+    Full,
+}
+
+/// The pin shape of a body from the rest positions of its pinned particles (offsets
+/// `0..pinned.len()` in the body), `extent` the body's size (m) for the tolerances.
+pub fn classify_pins(pinned: &[DVec3], extent: f64) -> Anchor {
+    if pinned.is_empty() {
+        return Anchor::Free;
+    }
+    let centroid = pinned.iter().copied().sum::<DVec3>() / pinned.len() as f64;
+    let tol = PIN_SHAPE_TOL * extent.max(f64::MIN_POSITIVE);
+    let far = |from: DVec3| {
+        pinned
+            .iter()
+            .enumerate()
+            .map(|(k, p)| (k, (*p - from).length()))
+            .fold(
+                (0, 0.0),
+                |best, cur| if cur.1 > best.1 { cur } else { best },
+            )
+    };
+    let (e0, d0) = far(centroid);
+    if d0 <= tol {
+        return Anchor::Point;
+    }
+    let (e1, d1) = far(pinned[e0]);
+    let axis = (pinned[e1] - pinned[e0]) / d1;
+    let off_line = pinned
+        .iter()
+        .map(|p| (*p - pinned[e0]).reject_from_normalized(axis).length())
+        .fold(0.0, f64::max);
+    if off_line <= tol {
+        Anchor::Line {
+            e0: e0 as u32,
+            e1: e1 as u32,
+        }
+    } else {
+        Anchor::Full
+    }
+}
+
+/// One body as the pure functions see it: its particles (global indices, pinned ones first),
+/// their rest positions relative to the body's rest reference point (the mass centre of a
+/// free body, the centroid of the pins of a pinned one), their masses (0 for pinned ones),
+/// and how the pins hold it.
+#[derive(Clone, Copy, Debug)]
+pub struct BodyRef<'a> {
+    /// Global particle indices; the first `pinned` are the pinned ones.
+    pub ids: &'a [u32],
+    /// Rest positions relative to the rest reference point (m).
+    pub rest: &'a [DVec3],
+    /// Masses (kg); 0 for the pinned particles.
+    pub mass: &'a [f64],
+    /// Number of pinned particles (at the start of `ids`).
+    pub pinned: usize,
+    /// How the pins hold the frame.
+    pub anchor: Anchor,
+}
+
+/// A rigid frame: particle `i` belongs at `centre + rotation · restᵢ`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Frame {
+    /// The current position of the rest reference point (m).
+    pub centre: DVec3,
+    /// The rotation from the rest pose.
+    pub rotation: DQuat,
+}
+
+/// `Σ mᵢ (xᵢ − origin) rᵢᵀ` and `Σ mᵢ (xᵢ − origin)` over `range` of the body.
+#[inline]
+fn moments(
+    body: &BodyRef<'_>,
+    x: &[DVec3],
+    range: std::ops::Range<usize>,
+    origin: DVec3,
+) -> (DMat3, DVec3) {
+    let (mut c0, mut c1, mut c2, mut first) = (DVec3::ZERO, DVec3::ZERO, DVec3::ZERO, DVec3::ZERO);
+    for k in range {
+        let p = (x[body.ids[k] as usize] - origin) * body.mass[k];
+        let r = body.rest[k];
+        c0 += p * r.x;
+        c1 += p * r.y;
+        c2 += p * r.z;
+        first += p;
+    }
+    (DMat3::from_cols(c0, c1, c2), first)
+}
+
+/// The centroid of the pins' current positions, with equal weights.
+#[inline]
+fn pin_centroid(body: &BodyRef<'_>, x: &[DVec3]) -> DVec3 {
+    let origin = x[body.ids[0] as usize];
+    let sum: DVec3 = body.ids[..body.pinned]
+        .iter()
+        .map(|&i| x[i as usize] - origin)
+        .sum();
+    origin + sum / body.pinned as f64
+}
+
+/// The rigid frame that best fits the current positions `x` (global slice) of `body`:
+/// minimizes `Σ mᵢ |xᵢ − (c + R rᵢ)|²` over proper rotations `R` and points `c`, with pinned
+/// particles as infinite masses (see [`Anchor`]). `hint` (the last frame's rotation) picks
+/// among equally good rotations and warm-starts the eigen-solver.
+///
+/// The caller guarantees every index of `body.ids` is inside `x`.
+pub fn fit_frame(body: &BodyRef<'_>, x: &[DVec3], hint: DQuat) -> Frame {
+    let n = body.ids.len();
+    if n == 0 {
+        return Frame {
+            centre: DVec3::ZERO,
+            rotation: hint,
+        };
+    }
+    match body.anchor {
+        Anchor::Free => {
+            // One pass about the first particle (for precision far from the origin); as
+            // Σ mᵢ rᵢ = 0, Σ mᵢ (xᵢ − o) rᵢᵀ = Σ mᵢ (xᵢ − c) rᵢᵀ for any o.
+            let origin = x[body.ids[0] as usize];
+            let (a, first) = moments(body, x, 0..n, origin);
+            let total: f64 = body.mass.iter().sum();
+            let centre = if total > 0.0 {
+                origin + first / total
+            } else {
+                origin
+            };
+            Frame {
+                centre,
+                rotation: optimal_rotation(&a, hint),
+            }
+        }
+        Anchor::Point => {
+            let centre = pin_centroid(body, x);
+            let (a, _) = moments(body, x, body.pinned..n, centre);
+            Frame {
+                centre,
+                rotation: optimal_rotation(&a, hint),
+            }
+        }
+        Anchor::Full => {
+            let centre = pin_centroid(body, x);
+            // The pins, with equal weights, alone: a unit weight stands for "infinite".
+            let (mut c0, mut c1, mut c2) = (DVec3::ZERO, DVec3::ZERO, DVec3::ZERO);
+            for k in 0..body.pinned {
+                let p = x[body.ids[k] as usize] - centre;
+                let r = body.rest[k];
+                c0 += p * r.x;
+                c1 += p * r.y;
+                c2 += p * r.z;
+            }
+            Frame {
+                centre,
+                rotation: optimal_rotation(&DMat3::from_cols(c0, c1, c2), hint),
+            }
+        }
+        Anchor::Line { e0, e1 } => {
+            let centre = pin_centroid(body, x);
+            let (e0, e1) = (e0 as usize, e1 as usize);
+            let rest_axis = (body.rest[e1] - body.rest[e0]).normalize_or_zero();
+            let axis = (x[body.ids[e1] as usize] - x[body.ids[e0] as usize]).normalize_or_zero();
+            let hint = if hint.is_finite() && hint.length_squared() > 0.0 {
+                hint.normalize()
+            } else {
+                DQuat::IDENTITY
+            };
+            if axis == DVec3::ZERO || rest_axis == DVec3::ZERO {
+                // The pins collapsed onto one point: hold the hint's orientation.
+                return Frame {
+                    centre,
+                    rotation: hint,
+                };
+            }
+            // The smallest turn bringing the hint's axis onto the pins' axis, then the twist
+            // θ about it maximizing Σ m p·Rot(axis, θ) u with u = align·r.
+            let align = (DQuat::from_rotation_arc(hint * rest_axis, axis) * hint).normalize();
+            let (mut cos_sum, mut sin_sum) = (0.0, 0.0);
+            for k in body.pinned..n {
+                let p = x[body.ids[k] as usize] - centre;
+                let u = align * body.rest[k];
+                let m = body.mass[k];
+                cos_sum += m * (p.dot(u) - axis.dot(u) * axis.dot(p));
+                sin_sum += m * axis.dot(u.cross(p));
+            }
+            let scale: f64 = (body.pinned..n)
+                .map(|k| body.mass[k] * body.rest[k].length_squared())
+                .sum();
+            let twist = if cos_sum.hypot(sin_sum) > DEGENERATE_TOL * scale {
+                sin_sum.atan2(cos_sum)
+            } else {
+                0.0 // every twist fits equally well: stay nearest the hint
+            };
+            let rotation = (DQuat::from_axis_angle(axis, twist) * align).normalize();
+            Frame {
+                centre,
+                rotation: if rotation.dot(hint) < 0.0 {
+                    -rotation
+                } else {
+                    rotation
+                },
+            }
+        }
+    }
+}
+
+/// One XPBD step of every free particle of `body` toward its goal `gᵢ = c + R rᵢ` of `frame`.
+///
+/// The constraint of particle `i` is the vector `Cᵢ = xᵢ − gᵢ` with compliance `α / mᵢ`
+/// (`α` in s², [`crate`] docs), so with `α̃ = α/h²` and the displacement `μᵢ` this step has
+/// already applied to the particle in the current substep (`wᵢλᵢ`, accumulated in `mu`):
+///
+/// ```text
+/// Δxᵢ = (−Cᵢ − α̃ μᵢ) / (1 + α̃),   μᵢ ← μᵢ + Δxᵢ
+/// ```
+///
+/// `alpha_tilde = 0` puts every particle on its goal. Particles whose inverse mass `w` is 0
+/// never move. `mu` is indexed like the body (`mu[k]` for `ids[k]`).
+pub fn project_goals(
+    body: &BodyRef<'_>,
+    frame: &Frame,
+    x: &mut [DVec3],
+    w: &[f64],
+    mu: &mut [DVec3],
+    alpha_tilde: f64,
+) {
+    let rot = DMat3::from_quat(frame.rotation);
+    let c = frame.centre;
+    let p = body.pinned;
+    let free = body.ids[p..].iter().zip(&body.rest[p..]);
+    if alpha_tilde == 0.0 {
+        for (&i, &r) in free {
+            let i = i as usize;
+            if w[i] > 0.0 {
+                x[i] = c + rot * r;
+            }
+        }
+    } else {
+        let inv = 1.0 / (1.0 + alpha_tilde);
+        for ((&i, &r), mu) in free.zip(&mut mu[p..]) {
+            let i = i as usize;
+            if w[i] > 0.0 {
+                let goal = c + rot * r;
+                let dx = ((goal - x[i]) - alpha_tilde * *mu) * inv;
+                x[i] += dx;
+                *mu += dx;
+            }
+        }
+    }
+}
+
+/// The distance of every free particle from its goal (m), for residuals: calls `f(k, d)` with
+/// the body offset `k` and the distance `d = |xᵢ − gᵢ|`.
+pub fn goal_distances(
+    body: &BodyRef<'_>,
+    frame: &Frame,
+    x: &[DVec3],
+    mut f: impl FnMut(usize, f64),
+) {
+    let rot = DMat3::from_quat(frame.rotation);
+    for k in body.pinned..body.ids.len() {
+        let goal = frame.centre + rot * body.rest[k];
+        f(k, (x[body.ids[k] as usize] - goal).length());
+    }
+}
+
+#[cfg(test)]
+#[allow(clippy::needless_range_loop)] // tests index several parallel arrays at once
+mod tests {
+    use super::*;
+
+    /// A tiny deterministic generator (xorshift64*), so the tests need no `rand`.
+    pub(crate) struct Rng(pub u64);
+
+    impl Rng {
+        pub fn next_f64(&mut self) -> f64 {
+            self.0 ^= self.0 >> 12;
+            self.0 ^= self.0 << 25;
+            self.0 ^= self.0 >> 27;
+            let bits = self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11;
+            bits as f64 / (1u64 << 53) as f64
+        }
+        pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
+            lo + (hi - lo) * self.next_f64()
+        }
+        pub fn vec3(&mut self, half: f64) -> DVec3 {
+            DVec3::new(
+                self.range(-half, half),
+                self.range(-half, half),
+                self.range(-half, half),
+            )
+        }
+        pub fn rotation(&mut self) -> DQuat {
+            loop {
+                let v = self.vec3(1.0);
+                let w = self.range(-1.0, 1.0);
+                let q = DQuat::from_xyzw(v.x, v.y, v.z, w);
+                if q.length() > 0.1 {
+                    return q.normalize();
+                }
+            }
+        }
+        pub fn matrix(&mut self) -> DMat3 {
+            DMat3::from_cols(self.vec3(1.0), self.vec3(1.0), self.vec3(1.0))
+        }
+    }
+
+    fn fit_value(r: DQuat, a: &DMat3) -> f64 {
+        let m = DMat3::from_quat(r);
+        (0..3).map(|j| m.col(j).dot(a.col(j))).sum()
+    }
+
+    fn mat_err(a: DMat3, b: DMat3) -> f64 {
+        (0..3)
+            .map(|j| (a.col(j) - b.col(j)).length())
+            .fold(0.0, f64::max)
+    }
+
+    #[test]
+    fn horn_quadratic_form_is_the_fit_of_the_rotation() {
+        let mut rng = Rng(7);
+        for _ in 0..100 {
+            let b = rng.matrix();
+            let q = rng.rotation();
+            let n = horn_matrix(&b);
+            let v = [q.w, q.x, q.y, q.z];
+            let form: f64 = (0..4)
+                .flat_map(|i| (0..4).map(move |j| (i, j)))
+                .map(|(i, j)| v[i] * n[i][j] * v[j])
+                .sum();
+            assert!((form - fit_value(q, &b)).abs() < 1e-13, "{form}");
+        }
+    }
+
+    #[test]
+    fn jacobi_diagonalizes_symmetric_matrices() {
+        let mut rng = Rng(11);
+        for _ in 0..200 {
+            let mut m = [[0.0; 4]; 4];
+            for i in 0..4 {
+                for j in i..4 {
+                    m[i][j] = rng.range(-10.0, 10.0);
+                    m[j][i] = m[i][j];
+                }
+            }
+            let (values, vectors) = symmetric_eigen4(m);
+            for a in 0..4 {
+                for b in 0..4 {
+                    let dot: f64 = (0..4).map(|k| vectors[a][k] * vectors[b][k]).sum();
+                    let expected = if a == b { 1.0 } else { 0.0 };
+                    assert!((dot - expected).abs() < 1e-14, "orthonormal");
+                }
+                // M v = λ v.
+                for i in 0..4 {
+                    let mv: f64 = (0..4).map(|k| m[i][k] * vectors[a][k]).sum();
+                    assert!((mv - values[a] * vectors[a][i]).abs() < 1e-12, "eigenpair");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn polar_rotation_is_recovered_exactly() {
+        // A = R0 S with S symmetric positive definite: the polar rotation is R0.
+        let mut rng = Rng(3);
+        for _ in 0..200 {
+            let r0 = rng.rotation();
+            let g = rng.matrix();
+            let s = g.transpose() * g + DMat3::IDENTITY * 0.1;
+            let a = DMat3::from_quat(r0) * s;
+            for hint in [DQuat::IDENTITY, rng.rotation(), r0] {
+                let r = optimal_rotation(&a, hint);
+                assert!(
+                    mat_err(DMat3::from_quat(r), DMat3::from_quat(r0)) < 1e-12,
+                    "{r:?} vs {r0:?}"
+                );
+                assert!(r.dot(hint) >= 0.0, "in the hint's hemisphere");
+            }
+        }
+    }
+
+    #[test]
+    fn rotation_is_optimal_and_proper_even_for_inverted_matrices() {
+        let mut rng = Rng(5);
+        let mut inverted = 0;
+        for _ in 0..300 {
+            let a = rng.matrix();
+            inverted += (a.determinant() < 0.0) as u32;
+            let r = optimal_rotation(&a, rng.rotation());
+            assert!(
+                (DMat3::from_quat(r).determinant() - 1.0).abs() < 1e-13,
+                "proper"
+            );
+            let best = fit_value(r, &a);
+            for _ in 0..20 {
+                let nudge = DQuat::from_scaled_axis(rng.vec3(0.05));
+                assert!(fit_value(nudge * r, &a) <= best + 1e-13, "not a maximum");
+                assert!(fit_value(rng.rotation(), &a) <= best + 1e-13, "not global");
+            }
+        }
+        assert!(inverted > 50, "the sample must hold inverted matrices");
+    }
+
+    #[test]
+    fn collinear_moment_keeps_the_twist_of_the_hint() {
+        // A = p rᵀ: every rotation taking r to p's direction is optimal.
+        let mut rng = Rng(9);
+        for _ in 0..100 {
+            let r0 = rng.rotation();
+            let dir = rng.vec3(1.0).normalize();
+            let a = DMat3::from_cols((r0 * dir) * dir.x, (r0 * dir) * dir.y, (r0 * dir) * dir.z);
+            // A hint that is itself optimal (r0 then any twist about dir) is returned as is.
+            let hint = r0 * DQuat::from_axis_angle(dir, rng.range(-3.0, 3.0));
+            let r = optimal_rotation(&a, hint);
+            assert!(r.angle_between(hint) < 1e-7, "{}", r.angle_between(hint));
+            // Any hint gives an optimal rotation: dir is carried onto r0·dir.
+            let r = optimal_rotation(&a, rng.rotation());
+            assert!((r * dir - r0 * dir).length() < 1e-7);
+        }
+    }
+
+    #[test]
+    fn zero_or_non_finite_moment_returns_the_hint() {
+        let hint = DQuat::from_axis_angle(DVec3::Y, 0.7);
+        assert_eq!(optimal_rotation(&DMat3::ZERO, hint), hint);
+        let mut nan = DMat3::IDENTITY;
+        nan.x_axis.y = f64::NAN;
+        assert_eq!(optimal_rotation(&nan, hint), hint);
+        assert_eq!(
+            optimal_rotation(&DMat3::ZERO, DQuat::from_xyzw(f64::NAN, 0.0, 0.0, 1.0)),
+            DQuat::IDENTITY
+        );
+    }
+
+    /// A free body of `n` particles with random masses (1 g to 1 kg) and rest positions
+    /// `shape(k)` relative to their mass centre.
+    struct TestBody {
+        ids: Vec<u32>,
+        rest: Vec<DVec3>,
+        mass: Vec<f64>,
+        pinned: usize,
+        anchor: Anchor,
+    }
+
+    impl TestBody {
+        fn free(points: Vec<DVec3>, rng: &mut Rng) -> Self {
+            let mass: Vec<f64> = points
+                .iter()
+                .map(|_| 10f64.powf(rng.range(-3.0, 0.0)))
+                .collect();
+            let m: f64 = mass.iter().sum();
+            let c = points
+                .iter()
+                .zip(&mass)
+                .map(|(p, m)| *p * *m)
+                .sum::<DVec3>()
+                / m;
+            Self {
+                ids: (0..points.len() as u32).collect(),
+                rest: points.iter().map(|p| *p - c).collect(),
+                mass,
+                pinned: 0,
+                anchor: Anchor::Free,
+            }
+        }
+
+        /// Pins the first `pins` particles (rest points relative to their centroid).
+        fn pinned(points: Vec<DVec3>, pins: usize, rng: &mut Rng) -> Self {
+            let c = points[..pins].iter().copied().sum::<DVec3>() / pins as f64;
+            let rest: Vec<DVec3> = points.iter().map(|p| *p - c).collect();
+            let extent = rest.iter().map(|r| r.length()).fold(0.0, f64::max);
+            let anchor = classify_pins(&rest[..pins], extent);
+            let mass = (0..points.len())
+                .map(|k| if k < pins { 0.0 } else { rng.range(0.1, 1.0) })
+                .collect();
+            Self {
+                ids: (0..points.len() as u32).collect(),
+                rest,
+                mass,
+                pinned: pins,
+                anchor,
+            }
+        }
+
+        fn body(&self) -> BodyRef<'_> {
+            BodyRef {
+                ids: &self.ids,
+                rest: &self.rest,
+                mass: &self.mass,
+                pinned: self.pinned,
+                anchor: self.anchor,
+            }
+        }
+
+        fn inv_mass(&self) -> Vec<f64> {
+            self.mass
+                .iter()
+                .map(|&m| if m > 0.0 { 1.0 / m } else { 0.0 })
+                .collect()
+        }
+
+        /// The body after one pass (with its own zeroed μ).
+        fn project(&self, x: &[DVec3], alpha_tilde: f64) -> (Vec<DVec3>, Frame) {
+            let mut x = x.to_vec();
+            let frame = fit_frame(&self.body(), &x, DQuat::IDENTITY);
+            let mut mu = vec![DVec3::ZERO; x.len()];
+            project_goals(
+                &self.body(),
+                &frame,
+                &mut x,
+                &self.inv_mass(),
+                &mut mu,
+                alpha_tilde,
+            );
+            (x, frame)
+        }
+    }
+
+    fn random_points(rng: &mut Rng, n: usize) -> Vec<DVec3> {
+        (0..n).map(|_| rng.vec3(1.0)).collect()
+    }
+
+    fn flat_points(rng: &mut Rng, n: usize) -> Vec<DVec3> {
+        (0..n)
+            .map(|_| DVec3::new(rng.range(-1.0, 1.0), 0.3, rng.range(-1.0, 1.0)))
+            .collect()
+    }
+
+    fn collinear_points(rng: &mut Rng, n: usize) -> Vec<DVec3> {
+        let dir = DVec3::new(1.0, 2.0, -0.5).normalize();
+        (0..n)
+            .map(|_| DVec3::ONE + dir * rng.range(-1.0, 1.0))
+            .collect()
+    }
+
+    /// Largest relative error of all pairwise distances of `x` against `rest`.
+    fn distance_error(x: &[DVec3], rest: &[DVec3]) -> f64 {
+        let mut worst: f64 = 0.0;
+        for i in 0..x.len() {
+            for j in i + 1..x.len() {
+                let d0 = (rest[j] - rest[i]).length();
+                let d = (x[j] - x[i]).length();
+                worst = worst.max((d - d0).abs() / d0.max(1e-300));
+            }
+        }
+        worst
+    }
+
+    /// The rest shape, deformed: a random affine map (possibly inverting) plus noise.
+    fn deformed(rng: &mut Rng, rest: &[DVec3], mirror: bool) -> Vec<DVec3> {
+        let mut m = DMat3::from_quat(rng.rotation()) + rng.matrix() * 0.3;
+        if mirror {
+            m *= DMat3::from_diagonal(DVec3::new(-1.0, 1.0, 1.0));
+        }
+        let shift = rng.vec3(5.0);
+        rest.iter()
+            .map(|r| m * *r + shift + rng.vec3(0.05))
+            .collect()
+    }
+
+    #[test]
+    fn full_rigidity_restores_every_pairwise_distance_in_one_pass() {
+        let mut rng = Rng(21);
+        for shape in 0..3 {
+            for trial in 0..30 {
+                let points = match shape {
+                    0 => random_points(&mut rng, 40),
+                    1 => flat_points(&mut rng, 40),
+                    _ => collinear_points(&mut rng, 40),
+                };
+                let tb = TestBody::free(points, &mut rng);
+                let x = deformed(&mut rng, &tb.rest, trial % 2 == 1);
+                let (after, frame) = tb.project(&x, 0.0);
+                assert!(after.iter().all(|p| p.is_finite()), "NaN, shape {shape}");
+                // The issue asks for 1e-9 relative; what remains is the rounding of
+                // positions about 5 m from the origin, relative to the closest pairs.
+                let err = distance_error(&after, &tb.rest);
+                assert!(err < 1e-9, "shape {shape} trial {trial}: {err:e}");
+                // A proper rotation: the goals are a rotated, never mirrored, rest shape.
+                let r = DMat3::from_quat(frame.rotation);
+                assert!((r.determinant() - 1.0).abs() < 1e-13);
+                for (p, rest) in after.iter().zip(&tb.rest) {
+                    assert!((*p - (frame.centre + r * *rest)).length() < 1e-12);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_mirrored_flat_body_is_matched_by_a_half_turn_not_a_reflection() {
+        // A flat set (y = 0 about its centre) mirrored in x is the same set turned over by a
+        // half-turn about z: the best proper fit reproduces it exactly, with det R = +1.
+        let mut rng = Rng(8);
+        let tb = TestBody::free(flat_points(&mut rng, 12), &mut rng);
+        assert!(tb.rest.iter().all(|r| r.y.abs() < 1e-15));
+        let x: Vec<DVec3> = tb.rest.iter().map(|r| DVec3::new(-r.x, r.y, r.z)).collect();
+        let (after, frame) = tb.project(&x, 0.0);
+        assert!((DMat3::from_quat(frame.rotation).determinant() - 1.0).abs() < 1e-13);
+        assert!(
+            frame
+                .rotation
+                .angle_between(DQuat::from_rotation_z(std::f64::consts::PI))
+                < 1e-7
+        );
+        for (a, b) in after.iter().zip(&x) {
+            assert!((*a - *b).length() < 1e-13, "{a} vs {b}");
+        }
+    }
+
+    #[test]
+    fn projection_conserves_linear_and_angular_momentum() {
+        let mut rng = Rng(33);
+        for trial in 0..200 {
+            let n = 3 + trial % 30;
+            let tb = TestBody::free(random_points(&mut rng, n), &mut rng);
+            let x = deformed(&mut rng, &tb.rest, false);
+            for alpha_tilde in [0.0, 0.7, 50.0] {
+                let (after, _) = tb.project(&x, alpha_tilde);
+                // Rounding of the positions themselves (~ε|x|) sets the floor of both sums.
+                let (mut p, mut l, mut p_scale, mut l_scale) = (DVec3::ZERO, DVec3::ZERO, 0.0, 0.0);
+                for k in 0..n {
+                    let dx = after[k] - x[k];
+                    p += dx * tb.mass[k];
+                    l += x[k].cross(dx) * tb.mass[k];
+                    p_scale += tb.mass[k] * (dx.length() + x[k].length());
+                    l_scale += tb.mass[k] * x[k].length() * (dx.length() + x[k].length());
+                }
+                assert!(p.length() < 1e-14 * p_scale, "linear {p:?} vs {p_scale}");
+                assert!(l.length() < 1e-14 * l_scale, "angular {l:?} vs {l_scale}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_non_optimal_rotation_would_create_angular_momentum() {
+        // The "iff": goals from a rotation 1 mrad off the optimum exert a net torque.
+        let mut rng = Rng(34);
+        let tb = TestBody::free(random_points(&mut rng, 20), &mut rng);
+        let x = deformed(&mut rng, &tb.rest, false);
+        let frame = fit_frame(&tb.body(), &x, DQuat::IDENTITY);
+        let off = Frame {
+            rotation: DQuat::from_scaled_axis(DVec3::new(0.0, 1e-3, 0.0)) * frame.rotation,
+            ..frame
+        };
+        let torque = |f: &Frame| {
+            let mut y = x.clone();
+            let mut mu = vec![DVec3::ZERO; y.len()];
+            project_goals(&tb.body(), f, &mut y, &tb.inv_mass(), &mut mu, 0.0);
+            (0..y.len())
+                .map(|k| x[k].cross(y[k] - x[k]) * tb.mass[k])
+                .sum::<DVec3>()
+                .length()
+        };
+        let inertia: f64 = tb
+            .rest
+            .iter()
+            .zip(&tb.mass)
+            .map(|(r, m)| m * r.length_squared())
+            .sum();
+        assert!(torque(&frame) < 1e-13 * inertia, "{}", torque(&frame));
+        assert!(torque(&off) > 1e-4 * inertia, "{}", torque(&off));
+    }
+
+    #[test]
+    fn fit_of_a_rigid_image_is_exact() {
+        let mut rng = Rng(44);
+        for _ in 0..50 {
+            let tb = TestBody::free(random_points(&mut rng, 15), &mut rng);
+            let (r0, c0) = (rng.rotation(), rng.vec3(100.0));
+            let x: Vec<DVec3> = tb.rest.iter().map(|r| c0 + r0 * *r).collect();
+            let frame = fit_frame(&tb.body(), &x, DQuat::IDENTITY);
+            assert!((frame.centre - c0).length() < 1e-12);
+            assert!(frame.rotation.angle_between(r0) < 1e-7);
+            assert!(mat_err(DMat3::from_quat(frame.rotation), DMat3::from_quat(r0)) < 1e-13);
+        }
+    }
+
+    #[test]
+    fn pins_are_classified_by_their_rest_shape() {
+        let p = |x: f64, y: f64, z: f64| DVec3::new(x, y, z);
+        assert_eq!(classify_pins(&[], 1.0), Anchor::Free);
+        assert_eq!(classify_pins(&[p(1.0, 2.0, 3.0)], 1.0), Anchor::Point);
+        assert_eq!(
+            classify_pins(&[p(1.0, 2.0, 3.0), p(1.0, 2.0, 3.0)], 1.0),
+            Anchor::Point
+        );
+        assert!(matches!(
+            classify_pins(&[p(0.0, 0.0, 0.0), p(0.5, 0.0, 0.0), p(1.0, 0.0, 0.0)], 1.0),
+            Anchor::Line { .. }
+        ));
+        assert_eq!(
+            classify_pins(&[p(0.0, 0.0, 0.0), p(1.0, 0.0, 0.0), p(0.0, 0.0, 1.0)], 1.0),
+            Anchor::Full
+        );
+    }
+
+    #[test]
+    fn a_body_pinned_at_one_point_pivots_about_it() {
+        let mut rng = Rng(55);
+        for _ in 0..30 {
+            let mut points = random_points(&mut rng, 12);
+            points[0] = DVec3::new(0.2, 0.9, -0.1);
+            let tb = TestBody::pinned(points, 1, &mut rng);
+            assert_eq!(tb.anchor, Anchor::Point);
+            // The pin moved somewhere; the free particles turned about it and were jostled.
+            let (r0, pin) = (rng.rotation(), rng.vec3(3.0));
+            let x: Vec<DVec3> = tb
+                .rest
+                .iter()
+                .enumerate()
+                .map(|(k, r)| pin + r0 * *r + if k > 0 { rng.vec3(0.02) } else { DVec3::ZERO })
+                .collect();
+            let (after, frame) = tb.project(&x, 0.0);
+            assert_eq!(after[0], x[0], "the pin never moves");
+            assert_eq!(frame.centre, pin);
+            assert!(frame.rotation.angle_between(r0) < 0.05);
+            // Every particle keeps its rest distance from the pin: it pivots.
+            for k in 1..after.len() {
+                let d = (after[k] - pin).length();
+                assert!((d - tb.rest[k].length()).abs() < 1e-12);
+            }
+            assert!(distance_error(&after, &tb.rest) < 1e-12);
+        }
+    }
+
+    #[test]
+    fn a_body_pinned_along_a_line_hinges_about_it() {
+        let mut rng = Rng(66);
+        for _ in 0..30 {
+            // Pins along the rest x axis; the hinge turns the body by `angle` about it, then
+            // the whole thing is carried by a rigid motion.
+            let mut points = random_points(&mut rng, 10);
+            points[0] = DVec3::new(-1.0, 0.0, 0.0);
+            points[1] = DVec3::new(0.0, 0.0, 0.0);
+            points[2] = DVec3::new(1.0, 0.0, 0.0);
+            let tb = TestBody::pinned(points, 3, &mut rng);
+            assert!(matches!(tb.anchor, Anchor::Line { .. }));
+            let angle = rng.range(-3.0, 3.0);
+            let (carry, shift) = (rng.rotation(), rng.vec3(2.0));
+            let truth = carry * DQuat::from_axis_angle(DVec3::X, angle);
+            let x: Vec<DVec3> = tb
+                .rest
+                .iter()
+                .enumerate()
+                .map(|(k, r)| {
+                    let hinge = if k < 3 { carry * *r } else { truth * *r };
+                    shift + hinge + if k >= 3 { rng.vec3(0.01) } else { DVec3::ZERO }
+                })
+                .collect();
+            let (after, frame) = tb.project(&x, 0.0);
+            assert_eq!(&after[..3], &x[..3], "pins never move");
+            assert!((frame.centre - shift).length() < 1e-12);
+            assert!(
+                frame.rotation.angle_between(truth) < 0.03,
+                "{}",
+                frame.rotation.angle_between(truth)
+            );
+            assert!(distance_error(&after, &tb.rest) < 1e-12);
+        }
+    }
+
+    #[test]
+    fn three_pins_alone_fix_the_frame() {
+        let mut rng = Rng(77);
+        let mut points = random_points(&mut rng, 8);
+        points[0] = DVec3::new(0.0, 0.0, 0.0);
+        points[1] = DVec3::new(1.0, 0.0, 0.0);
+        points[2] = DVec3::new(0.0, 1.0, 0.0);
+        let tb = TestBody::pinned(points, 3, &mut rng);
+        assert_eq!(tb.anchor, Anchor::Full);
+        let (r0, shift) = (rng.rotation(), rng.vec3(2.0));
+        // The free particles are thrown anywhere: they do not move the frame.
+        let x: Vec<DVec3> = tb
+            .rest
+            .iter()
+            .enumerate()
+            .map(|(k, r)| {
+                if k < 3 {
+                    shift + r0 * *r
+                } else {
+                    rng.vec3(5.0)
+                }
+            })
+            .collect();
+        let (after, frame) = tb.project(&x, 0.0);
+        assert!(frame.rotation.angle_between(r0) < 1e-7);
+        for k in 0..after.len() {
+            assert!((after[k] - (shift + r0 * tb.rest[k])).length() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn compliant_pass_moves_each_particle_the_same_fraction_and_extra_passes_do_not_stiffen() {
+        let mut rng = Rng(88);
+        let tb = TestBody::free(random_points(&mut rng, 10), &mut rng);
+        let x = deformed(&mut rng, &tb.rest, false);
+        let alpha_tilde = 3.0;
+        let frame = fit_frame(&tb.body(), &x, DQuat::IDENTITY);
+        let (once, _) = tb.project(&x, alpha_tilde);
+        let rot = DMat3::from_quat(frame.rotation);
+        for k in 0..x.len() {
+            let goal = frame.centre + rot * tb.rest[k];
+            let expected = x[k] + (goal - x[k]) / (1.0 + alpha_tilde);
+            assert!((once[k] - expected).length() < 1e-12);
+        }
+        // With the frame held fixed (as for an isolated body whose fit no longer changes),
+        // μ makes the second pass a no-op: the first already reached the XPBD solution.
+        let mut y = x.clone();
+        let mut mu = vec![DVec3::ZERO; y.len()];
+        project_goals(
+            &tb.body(),
+            &frame,
+            &mut y,
+            &tb.inv_mass(),
+            &mut mu,
+            alpha_tilde,
+        );
+        let after_one = y.clone();
+        project_goals(
+            &tb.body(),
+            &frame,
+            &mut y,
+            &tb.inv_mass(),
+            &mut mu,
+            alpha_tilde,
+        );
+        for (a, b) in y.iter().zip(&after_one) {
+            assert!((*a - *b).length() < 1e-14);
+        }
+    }
+
+    #[test]
+    fn degenerate_bodies_produce_no_nan() {
+        let mut rng = Rng(99);
+        let cases: Vec<(Vec<DVec3>, Vec<DVec3>)> = vec![
+            (vec![DVec3::ONE], vec![DVec3::ZERO]),
+            (vec![DVec3::ONE; 5], vec![DVec3::new(0.1, 0.2, 0.3); 5]),
+            (collinear_points(&mut rng, 6), vec![DVec3::splat(2.0); 6]),
+            (random_points(&mut rng, 6), vec![DVec3::ZERO; 6]),
+        ];
+        for (points, x) in cases {
+            let tb = TestBody::free(points, &mut rng);
+            let (after, frame) = tb.project(&x, 0.0);
+            assert!(after.iter().all(|p| p.is_finite()));
+            assert!(frame.rotation.is_finite() && frame.centre.is_finite());
+            assert!((frame.rotation.length() - 1.0).abs() < 1e-14);
+        }
+    }
+}
