@@ -61,7 +61,8 @@ pub fn edge_angle_gradient(x: &[DVec3; 3]) -> Option<(f64, [DVec3; 3])> {
     }
     let n = a.cross(b);
     let n_len = n.length();
-    if !(n_len >= MIN_SIN * (a_sq * b_sq).sqrt()) {
+    // Collinear, or NaN.
+    if n_len.is_nan() || n_len < MIN_SIN * (a_sq * b_sq).sqrt() {
         return None;
     }
     let phi = n_len.atan2(a.dot(b));
@@ -119,7 +120,10 @@ mod tests {
         // acos loses this angle entirely: 1 − cos(1e-9) rounds to 0.
         let tiny = edge_angle(&[DVec3::X, o, DVec3::new(1.0, 1e-9, 0.0)]).expect("defined");
         assert!((tiny - 1e-9).abs() < 1e-22, "{tiny}");
-        assert_eq!((DVec3::X.dot(DVec3::new(1.0, 1e-9, 0.0).normalize())).acos(), 0.0);
+        assert_eq!(
+            (DVec3::X.dot(DVec3::new(1.0, 1e-9, 0.0).normalize())).acos(),
+            0.0
+        );
     }
 
     #[test]
@@ -143,7 +147,8 @@ mod tests {
                     let mut minus = x;
                     plus[p][axis] += eps;
                     minus[p][axis] -= eps;
-                    let fd = (edge_angle(&plus).unwrap() - edge_angle(&minus).unwrap()) / (2.0 * eps);
+                    let fd =
+                        (edge_angle(&plus).unwrap() - edge_angle(&minus).unwrap()) / (2.0 * eps);
                     // Relative to the gradient's scale 1/|edge| ≤ 5; near 0 and π the
                     // curvature is ~1/(|edge| sin φ), so the central difference error is
                     // O(eps²/sin³φ).
@@ -165,7 +170,11 @@ mod tests {
             let (la, lb) = (rng.range(0.01, 2.0), rng.range(0.01, 2.0));
             let x = hinge(&mut rng, phi, la, lb);
             let w = [rng.inv_mass(), rng.inv_mass(), rng.inv_mass()];
-            let alpha = if k % 2 == 0 { 0.0 } else { rng.range(0.0, 10.0) };
+            let alpha = if k % 2 == 0 {
+                0.0
+            } else {
+                rng.range(0.0, 10.0)
+            };
             let lambda = rng.range(-1e-4, 1e-4);
             let rest = rng.range(0.0, PI);
             let c = project_edge_angle(&x, &w, rest, alpha, lambda, H).expect("projectable");
@@ -214,7 +223,10 @@ mod tests {
         let w = [1.0; 3];
         // Coincident vertices: no angle at all.
         assert_eq!(edge_angle(&[p, p, p + DVec3::X]), None);
-        assert_eq!(project_edge_angle(&[p, p, p + DVec3::X], &w, 1.0, 0.0, 0.0, H), None);
+        assert_eq!(
+            project_edge_angle(&[p, p, p + DVec3::X], &w, 1.0, 0.0, 0.0, H),
+            None
+        );
         assert_eq!(project_edge_angle(&[p; 3], &w, 1.0, 1e-3, 0.0, H), None);
         // Collinear edges: the angle is defined, the plane to bend in is not.
         let straight = [p - DVec3::X, p, p + DVec3::X];

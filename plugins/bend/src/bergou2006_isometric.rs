@@ -49,7 +49,7 @@ pub const MIN_REST_SIN: f64 = 1e-9;
 #[inline]
 fn cot(u: DVec3, v: DVec3) -> Option<f64> {
     let sin = u.cross(v).length();
-    if !(sin >= MIN_REST_SIN * u.length() * v.length()) {
+    if sin.is_nan() || sin < MIN_REST_SIN * u.length() * v.length() {
         return None;
     }
     let c = u.dot(v) / sin;
@@ -135,7 +135,12 @@ mod tests {
         let len = rng.range(0.2, 2.0);
         let (sk, hk) = (rng.range(-0.3, 1.3), rng.range(0.2, 1.2));
         let (sl, hl) = (rng.range(-0.3, 1.3), rng.range(0.2, 1.2));
-        let flat = [o, o + u * len, o + u * (sk * len) + v * hk, o + u * (sl * len) - v * hl];
+        let flat = [
+            o,
+            o + u * len,
+            o + u * (sk * len) + v * hk,
+            o + u * (sl * len) - v * hl,
+        ];
         let mut bent = flat;
         bent[3] = o + u * (sl * len) - (v * theta.cos() + n * theta.sin()) * hl;
         (flat, bent)
@@ -156,7 +161,12 @@ mod tests {
     #[test]
     fn weights_of_a_symmetric_diamond_are_bergous() {
         // Axis of length 2, wings at height 1 over its midpoint: every cotangent is 1.
-        let x = [DVec3::ZERO, DVec3::new(2.0, 0.0, 0.0), DVec3::new(1.0, 1.0, 0.0), DVec3::new(1.0, -1.0, 0.0)];
+        let x = [
+            DVec3::ZERO,
+            DVec3::new(2.0, 0.0, 0.0),
+            DVec3::new(1.0, 1.0, 0.0),
+            DVec3::new(1.0, -1.0, 0.0),
+        ];
         let k = isometric_weights(&x).expect("regular");
         assert_eq!(k, [1.0, 1.0, -1.0, -1.0]);
     }
@@ -169,7 +179,10 @@ mod tests {
             let (flat, bent) = folded(&mut rng, theta);
             let k = isometric_weights(&flat).expect("regular");
             let (c, _) = isometric_constraint(&bent, &k).expect("bent");
-            assert!((c - 2.0 * (theta / 2.0).sin().abs()).abs() < 1e-12, "{c} vs θ = {theta}");
+            assert!(
+                (c - 2.0 * (theta / 2.0).sin().abs()).abs() < 1e-12,
+                "{c} vs θ = {theta}"
+            );
             // And θ is the dihedral model's angle.
             let phi = dihedral_angle(&bent).expect("regular");
             assert!((phi - theta).abs() < 1e-12);
@@ -181,7 +194,11 @@ mod tests {
         let mut rng = Rng(3);
         let eps = 1e-7;
         for case in 0..300 {
-            let theta = if case % 2 == 0 { rng.range(-3.0, 3.0) } else { rng.range(1e-3, 2e-3) };
+            let theta = if case % 2 == 0 {
+                rng.range(-3.0, 3.0)
+            } else {
+                rng.range(1e-3, 2e-3)
+            };
             let (flat, bent) = folded(&mut rng, theta);
             // Perturb off the isometric fold too: the constraint is defined everywhere.
             let x = bent.map(|p| p + rng.vec3(0.05));
@@ -196,7 +213,10 @@ mod tests {
                     minus[p][axis] -= eps;
                     let fd = (c_at(&plus) - c_at(&minus)) / (2.0 * eps);
                     let g = v_hat[axis] * k[p];
-                    assert!((fd - g).abs() < 1e-5 * (1.0 + k[p].abs()), "case {case}: {fd} vs {g}");
+                    assert!(
+                        (fd - g).abs() < 1e-5 * (1.0 + k[p].abs()),
+                        "case {case}: {fd} vs {g}"
+                    );
                 }
             }
         }
@@ -210,8 +230,17 @@ mod tests {
             let (flat, bent) = folded(&mut rng, theta);
             let x = bent.map(|p| p + rng.vec3(0.05));
             let k = isometric_weights(&flat).expect("regular");
-            let w = [rng.inv_mass(), rng.inv_mass(), rng.inv_mass(), rng.inv_mass()];
-            let alpha = if n % 2 == 0 { 0.0 } else { rng.range(0.0, 10.0) };
+            let w = [
+                rng.inv_mass(),
+                rng.inv_mass(),
+                rng.inv_mass(),
+                rng.inv_mass(),
+            ];
+            let alpha = if n % 2 == 0 {
+                0.0
+            } else {
+                rng.range(0.0, 10.0)
+            };
             let lambda = rng.range(-1e-4, 1e-4);
             let c = project_isometric(&x, &k, &w, alpha, lambda, H).expect("bent");
             assert_conserves_momentum(&x, &w, &c.dx);
@@ -243,10 +272,18 @@ mod tests {
         let nan = [p, p + DVec3::X, p + DVec3::Y, DVec3::splat(f64::NAN)];
         assert_eq!(isometric_weights(&nan), None);
         // A flat hinge, and every vertex coincident: nothing to do, no NaN.
-        let good = [p, p + DVec3::X, p + DVec3::new(0.5, 1.0, 0.0), p + DVec3::new(0.5, -1.0, 0.0)];
+        let good = [
+            p,
+            p + DVec3::X,
+            p + DVec3::new(0.5, 1.0, 0.0),
+            p + DVec3::new(0.5, -1.0, 0.0),
+        ];
         let k = isometric_weights(&good).expect("regular");
         assert_eq!(project_isometric(&good, &k, &[1.0; 4], 0.0, 0.0, H), None);
-        assert_eq!(project_isometric(&[p; 4], &k, &[1.0; 4], 1e-3, 0.5, H), None);
+        assert_eq!(
+            project_isometric(&[p; 4], &k, &[1.0; 4], 1e-3, 0.5, H),
+            None
+        );
         assert_eq!(project_isometric(&nan, &k, &[1.0; 4], 0.0, 0.0, H), None);
     }
 }

@@ -198,8 +198,15 @@ mod tests {
     fn angle_sign_and_range() {
         let frame = (DVec3::X, DVec3::Y);
         let at = |phi: f64| {
-            dihedral_angle(&make_hinge(DVec3::ZERO, frame, 1.0, phi, (0.5, 1.0), (0.3, 0.7)))
-                .expect("defined")
+            dihedral_angle(&make_hinge(
+                DVec3::ZERO,
+                frame,
+                1.0,
+                phi,
+                (0.5, 1.0),
+                (0.3, 0.7),
+            ))
+            .expect("defined")
         };
         assert_eq!(at(0.0), 0.0, "flat");
         for phi in [0.3, -0.3, 1.5, -1.5, 3.0, -3.0, PI - 1e-9, -PI + 1e-9] {
@@ -216,7 +223,12 @@ mod tests {
     #[test]
     fn consistently_wound_flat_triangles_have_parallel_normals() {
         // Triangles (i, j, k) and (j, i, l) of a flat quad: n₁ and n₂ are their normals.
-        let x = [DVec3::ZERO, DVec3::X, DVec3::new(0.5, 1.0, 0.0), DVec3::new(0.5, -1.0, 0.0)];
+        let x = [
+            DVec3::ZERO,
+            DVec3::X,
+            DVec3::new(0.5, 1.0, 0.0),
+            DVec3::new(0.5, -1.0, 0.0),
+        ];
         let h = hinge(&x).expect("regular");
         let normal1 = (x[1] - x[0]).cross(x[2] - x[0]);
         let normal2 = (x[0] - x[1]).cross(x[3] - x[1]);
@@ -245,9 +257,9 @@ mod tests {
         for case in 0..400 {
             let phi = match case % 4 {
                 0 => rng.range(-PI, PI),
-                1 => rng.range(-1e-3, 1e-3),           // near flat
-                2 => PI - rng.range(1e-3, 2e-3),       // near folded, +
-                _ => -PI + rng.range(1e-3, 2e-3),      // near folded, −
+                1 => rng.range(-1e-3, 1e-3),      // near flat
+                2 => PI - rng.range(1e-3, 2e-3),  // near folded, +
+                _ => -PI + rng.range(1e-3, 2e-3), // near folded, −
             };
             let x = random_hinge(&mut rng, phi);
             let (value, grad) = dihedral_angle_gradient(&x).expect("regular");
@@ -259,7 +271,9 @@ mod tests {
                     let mut minus = x;
                     plus[p][axis] += eps;
                     minus[p][axis] -= eps;
-                    let d = wrap_angle(dihedral_angle(&plus).unwrap() - dihedral_angle(&minus).unwrap());
+                    let d = wrap_angle(
+                        dihedral_angle(&plus).unwrap() - dihedral_angle(&minus).unwrap(),
+                    );
                     let fd = d / (2.0 * eps);
                     assert!(
                         (fd - grad[p][axis]).abs() < 1e-6,
@@ -274,9 +288,20 @@ mod tests {
     #[test]
     fn gradient_is_finite_and_bounded_by_the_heights_near_degenerate_wings() {
         // A wing of height 1e-6 m: large but finite gradient, 1/h.
-        let x = make_hinge(DVec3::ZERO, (DVec3::X, DVec3::Y), 1.0, 0.4, (0.5, 1e-6), (0.5, 1.0));
+        let x = make_hinge(
+            DVec3::ZERO,
+            (DVec3::X, DVec3::Y),
+            1.0,
+            0.4,
+            (0.5, 1e-6),
+            (0.5, 1.0),
+        );
         let (_, grad) = dihedral_angle_gradient(&x).expect("regular");
-        assert!((grad[2].length() - 1e6).abs() < 1e-3, "{}", grad[2].length());
+        assert!(
+            (grad[2].length() - 1e6).abs() < 1e-3,
+            "{}",
+            grad[2].length()
+        );
         assert!(grad.iter().all(|g| g.is_finite()));
     }
 
@@ -286,8 +311,17 @@ mod tests {
         for k in 0..500 {
             let phi = rng.range(-PI, PI);
             let x = random_hinge(&mut rng, phi);
-            let w = [rng.inv_mass(), rng.inv_mass(), rng.inv_mass(), rng.inv_mass()];
-            let alpha = if k % 2 == 0 { 0.0 } else { rng.range(0.0, 10.0) };
+            let w = [
+                rng.inv_mass(),
+                rng.inv_mass(),
+                rng.inv_mass(),
+                rng.inv_mass(),
+            ];
+            let alpha = if k % 2 == 0 {
+                0.0
+            } else {
+                rng.range(0.0, 10.0)
+            };
             let rest = rng.range(-PI, PI);
             let lambda = rng.range(-1e-4, 1e-4);
             let c = project_dihedral(&x, &w, rest, alpha, lambda, H).expect("regular");
@@ -324,7 +358,14 @@ mod tests {
         // Rest: folded +30°. Pushed through flat to −30°: |φ| is 30° in both, so an unsigned
         // (acos) constraint sees nothing to do; the signed one turns it back to +30°.
         let rest = 30f64.to_radians();
-        let mut x = make_hinge(DVec3::ZERO, (DVec3::X, DVec3::Y), 1.0, -rest, (0.5, 1.0), (0.5, 1.0));
+        let mut x = make_hinge(
+            DVec3::ZERO,
+            (DVec3::X, DVec3::Y),
+            1.0,
+            -rest,
+            (0.5, 1.0),
+            (0.5, 1.0),
+        );
         let unsigned = dihedral_angle(&x).unwrap().abs();
         assert!((unsigned - rest).abs() < 1e-12);
         for _ in 0..12 {
@@ -340,7 +381,14 @@ mod tests {
         // must cut the wrapped error, turning through ±π, never unfolding through flat.
         let rest = 170f64.to_radians();
         let start = (-175f64).to_radians();
-        let x = make_hinge(DVec3::ZERO, (DVec3::X, DVec3::Y), 1.0, start, (0.5, 1.0), (0.5, 1.0));
+        let x = make_hinge(
+            DVec3::ZERO,
+            (DVec3::X, DVec3::Y),
+            1.0,
+            start,
+            (0.5, 1.0),
+            (0.5, 1.0),
+        );
         let c = project_dihedral(&x, &[1.0; 4], rest, 0.0, 0.0, H).expect("regular");
         let mut y = x;
         apply(&mut y, c.dx);
@@ -354,7 +402,14 @@ mod tests {
     fn compliant_step_on_an_isolated_hinge_is_the_implicit_spring_step() {
         // For one hinge whose angle is (locally) linear in the step, XPBD's first pass gives
         // Δφ = −C·|∇|²_w/(|∇|²_w + α/h²): the backward-Euler update of a spring 1/α.
-        let x = make_hinge(DVec3::ZERO, (DVec3::X, DVec3::Y), 1.0, 0.5, (0.5, 1.0), (0.5, 1.0));
+        let x = make_hinge(
+            DVec3::ZERO,
+            (DVec3::X, DVec3::Y),
+            1.0,
+            0.5,
+            (0.5, 1.0),
+            (0.5, 1.0),
+        );
         let (phi, grad) = dihedral_angle_gradient(&x).unwrap();
         let w = [1.0; 4];
         let s: f64 = grad.iter().map(|g| g.length_squared()).sum();
@@ -370,11 +425,11 @@ mod tests {
         let p = DVec3::new(0.1, 0.2, 0.3);
         let w = [1.0; 4];
         let cases: [[DVec3; 4]; 6] = [
-            [p; 4],                                                     // all coincident
-            [p, p, p + DVec3::Y, p - DVec3::Y],                         // zero-length axis
-            [p, p + DVec3::X, p + DVec3::X * 0.5, p - DVec3::Y],        // wing k on the axis
-            [p, p + DVec3::X, p + DVec3::Y, p + DVec3::X * 3.0],        // wing l collinear
-            [p, p + DVec3::X, p + DVec3::Y, DVec3::splat(f64::NAN)],    // NaN
+            [p; 4],                                                       // all coincident
+            [p, p, p + DVec3::Y, p - DVec3::Y],                           // zero-length axis
+            [p, p + DVec3::X, p + DVec3::X * 0.5, p - DVec3::Y],          // wing k on the axis
+            [p, p + DVec3::X, p + DVec3::Y, p + DVec3::X * 3.0],          // wing l collinear
+            [p, p + DVec3::X, p + DVec3::Y, DVec3::splat(f64::NAN)],      // NaN
             [p, p + DVec3::X, DVec3::splat(f64::INFINITY), p - DVec3::Y], // infinity
         ];
         for (n, x) in cases.iter().enumerate() {

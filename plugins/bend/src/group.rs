@@ -9,9 +9,7 @@ use nucleus_sdk::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::angle::{edge_angle, project_edge_angle};
-use crate::bergou2006_isometric::{
-    curvature_vector, isometric_weights, project_isometric,
-};
+use crate::bergou2006_isometric::{curvature_vector, isometric_weights, project_isometric};
 use crate::dihedral::{dihedral_angle, project_dihedral, wrap_angle};
 
 /// Which constraints a group holds; one per kind of this plugin.
@@ -256,7 +254,11 @@ impl BendGroup {
     ///
     /// Errors: a parameter out of range (naming it); a constraint outside its object's
     /// particles or using a particle twice (naming the object); a target outside the scene.
-    pub fn new(kind: Kind, params: &BendParams, scene: &SceneView<'_>) -> Result<Self, PluginError> {
+    pub fn new(
+        kind: Kind,
+        params: &BendParams,
+        scene: &SceneView<'_>,
+    ) -> Result<Self, PluginError> {
         params.validate(kind)?;
         let objects = scene.objects.as_slice();
         let rest_x = scene.rest_positions();
@@ -299,7 +301,9 @@ impl BendGroup {
                 Kind::Bend | Kind::BendIsometric => object
                     .triangle_pairs
                     .iter()
-                    .filter(|p| is_surface(object, p.triangles[0]) && is_surface(object, p.triangles[1]))
+                    .filter(|p| {
+                        is_surface(object, p.triangles[0]) && is_surface(object, p.triangles[1])
+                    })
                     .map(|p| [p.edge[0], p.edge[1], p.opposite[0], p.opposite[1]])
                     .collect(),
                 Kind::Twist => {
@@ -470,8 +474,11 @@ impl ConstraintGroup for BendGroup {
         let mut skipped = 0;
         match self.quad_model {
             QuadModel::Dihedral => {
-                for ((ids, &rest), lambda) in
-                    self.quads.iter().zip(&self.quad_rest).zip(&mut self.quad_lambda)
+                for ((ids, &rest), lambda) in self
+                    .quads
+                    .iter()
+                    .zip(&self.quad_rest)
+                    .zip(&mut self.quad_lambda)
                 {
                     let xs = gather(x, ids);
                     let ws = ids.map(|i| w[i as usize]);
@@ -485,8 +492,11 @@ impl ConstraintGroup for BendGroup {
                 }
             }
             QuadModel::Isometric => {
-                for ((ids, k), lambda) in
-                    self.quads.iter().zip(&self.quad_weights).zip(&mut self.quad_lambda)
+                for ((ids, k), lambda) in self
+                    .quads
+                    .iter()
+                    .zip(&self.quad_weights)
+                    .zip(&mut self.quad_lambda)
                 {
                     let xs = gather(x, ids);
                     let ws = ids.map(|i| w[i as usize]);

@@ -96,9 +96,9 @@ pub mod group;
 pub mod step;
 
 #[cfg(test)]
-mod testutil;
-#[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod testutil;
 
 pub use group::{presets, BendGroup, BendParams, Kind};
 

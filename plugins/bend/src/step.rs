@@ -69,10 +69,19 @@ mod tests {
     #[test]
     fn pinned_or_gradient_free_constraints_are_skipped() {
         let grad = [DVec3::NEG_X, DVec3::X];
-        assert_eq!(xpbd_correction(1.0, &grad, &[0.0, 0.0], 0.0, 0.0, 0.01), None);
+        assert_eq!(
+            xpbd_correction(1.0, &grad, &[0.0, 0.0], 0.0, 0.0, 0.01),
+            None
+        );
         let flat = [DVec3::ZERO, DVec3::ZERO];
-        assert_eq!(xpbd_correction(1.0, &flat, &[1.0, 1.0], 1.0, 0.0, 0.01), None);
+        assert_eq!(
+            xpbd_correction(1.0, &flat, &[1.0, 1.0], 1.0, 0.0, 0.01),
+            None
+        );
         let nan = [DVec3::splat(f64::NAN), DVec3::X];
-        assert_eq!(xpbd_correction(1.0, &nan, &[1.0, 1.0], 0.0, 0.0, 0.01), None);
+        assert_eq!(
+            xpbd_correction(1.0, &nan, &[1.0, 1.0], 0.0, 0.0, 0.01),
+            None
+        );
     }
 }
