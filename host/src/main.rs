@@ -1,5 +1,8 @@
 //! `nucleus`: loads plugin directories and runs scenes.
 
+mod bench;
+mod new_plugin;
+
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
@@ -63,17 +66,59 @@ enum Command {
         #[command(flatten)]
         plugin_args: PluginArgs,
     },
+    /// Run time against error: run SCENE at every substeps x iterations combination and write
+    /// DIR/bench.csv, DIR/bench.svg (time per frame vs position error) and
+    /// DIR/bench_residual.svg.
+    Bench {
+        /// The scene file (TOML).
+        scene: PathBuf,
+        /// Substep counts, comma-separated.
+        #[arg(long, default_value = "1,2,4,8,16")]
+        substeps: String,
+        /// Iteration counts, comma-separated.
+        #[arg(long, default_value = "1,2,4,8,16")]
+        iterations: String,
+        /// Frames per run [default: the scene's].
+        #[arg(long)]
+        frames: Option<u32>,
+        /// Timed runs per combination (the median is reported).
+        #[arg(long, default_value_t = 3)]
+        repeats: u32,
+        /// The converged reference as SUBSTEPS,ITERATIONS [default: the finest combination].
+        #[arg(long, value_name = "S,I")]
+        reference: Option<String>,
+        /// Output directory [default: out/bench-<scene name>].
+        #[arg(long, value_name = "DIR")]
+        out: Option<PathBuf>,
+        /// Override any scene value (repeatable), as for `run`.
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
+        /// Print nothing but errors.
+        #[arg(long, short)]
+        quiet: bool,
+        #[command(flatten)]
+        plugin_args: PluginArgs,
+    },
     /// List every plugin found, its kinds, their default order/importance and parameters.
     Plugins {
         #[command(flatten)]
         plugin_args: PluginArgs,
     },
+    /// Create a new constraint-plugin crate from the SDK template: a workspace of its own,
+    /// the SDK by path, ready to `cargo build --release`; prints the next three commands.
+    NewPlugin(new_plugin::NewPluginArgs),
 }
 
 /// An error with the exit code it maps to.
 struct Failure {
     code: u8,
     message: String,
+}
+
+impl From<String> for Failure {
+    fn from(message: String) -> Self {
+        Failure::input(message)
+    }
 }
 
 impl Failure {
@@ -115,7 +160,50 @@ fn main() -> ExitCode {
             quiet,
             plugin_args,
         }),
+        Command::NewPlugin(args) => new_plugin::run(&args).map_err(Failure::input),
         Command::Plugins { plugin_args } => list_plugins(&plugin_args),
+        Command::Bench {
+            scene,
+            substeps,
+            iterations,
+            frames,
+            repeats,
+            reference,
+            out,
+            set,
+            quiet,
+            plugin_args,
+        } => (|| {
+            let reference = match reference {
+                Some(r) => match bench::parse_list(&r)?.as_slice() {
+                    [s, i] => Some((*s, *i)),
+                    _ => return Err(Failure::input("--reference takes SUBSTEPS,ITERATIONS")),
+                },
+                None => None,
+            };
+            let out = out.unwrap_or_else(|| {
+                let stem = default_out(&scene);
+                let name = stem.file_name().map(|n| n.to_string_lossy().to_string());
+                PathBuf::from("out").join(format!("bench-{}", name.unwrap_or_default()))
+            });
+            let args = bench::BenchArgs {
+                substeps: bench::parse_list(&substeps)?,
+                iterations: bench::parse_list(&iterations)?,
+                scene,
+                set,
+                frames,
+                repeats,
+                reference,
+                out,
+                quiet,
+            };
+            let registry = discover(&plugin_args, quiet)?;
+            bench::run(&args, &registry).map_err(Failure::run)?;
+            if !quiet {
+                println!("wrote {}", args.out.join("bench.csv").display());
+            }
+            Ok(())
+        })(),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

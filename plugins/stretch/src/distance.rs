@@ -70,15 +70,22 @@ pub fn distance_constraint(xi: DVec3, xj: DVec3, rest: f64) -> Option<(f64, DVec
     Some((len - rest, d / len))
 }
 
+/// The smallest cosine between the current edge direction and its start-of-substep direction
+/// for which the correction runs along the start direction (about 26°). Beyond it the edge is
+/// turning fast within the substep and the plain XPBD direction converges better: measured on
+/// the 32×32 drape at 1 substep × 1 pass, a 60° bound gave 1.43 mean RMS strain against 1.0
+/// for 26° and 0.98 for never.
+pub const START_DIRECTION_MIN_COS: f64 = 0.9;
+
 /// The direction of the correction: the edge's direction at the start of the substep when it
-/// is defined and within 60° of the current one `n`, else `n`.
+/// is defined and within [`START_DIRECTION_MIN_COS`] of the current one `n`, else `n`.
 #[inline]
 pub fn start_direction(x0: [DVec3; 2], n: DVec3) -> DVec3 {
     let e0 = x0[1] - x0[0];
     let len0 = e0.length();
     if len0 >= MIN_LENGTH && len0.is_finite() {
         let d = e0 / len0;
-        if n.dot(d) >= 0.5 {
+        if n.dot(d) >= START_DIRECTION_MIN_COS {
             return d;
         }
     }
@@ -100,8 +107,8 @@ pub fn start_direction(x0: [DVec3; 2], n: DVec3) -> DVec3 {
 /// velocity update `v = (x − x0)/h`, a correction changes the angular momentum by
 /// `Δλ (xj0 − xi0) × d / h`, which vanishes only for `d ∥ xj0 − xi0`. So every step conserves
 /// linear *and* angular momentum exactly, and the Newton step along `d` uses the directional
-/// derivative `(wi + wj)(n·d)`. Where the edge turned by more than 60° within the substep
-/// (`n·d < ½`) or had no length at its start, `d = n` (the plain XPBD step).
+/// derivative `(wi + wj)(n·d)`. Where the edge turned by more than ~26° within the substep
+/// (`n·d < 0.9`) or had no length at its start, `d = n` (the plain XPBD step).
 ///
 /// `x0 = [xi0, xj0]` are the positions at the start of the substep.
 ///
@@ -245,8 +252,8 @@ mod tests {
             assert!(p.length() <= 1e-12 * p_scale, "linear: {p} vs {p_scale}");
             // With v = (x − x0)/h the step changes the angular momentum by
             // Σ m x0 × Δx / h: zero when the correction runs along the start direction.
-            let l_scale = mi * x0[0].length() * corr.dxi.length()
-                + mj * x0[1].length() * corr.dxj.length();
+            let l_scale =
+                mi * x0[0].length() * corr.dxi.length() + mj * x0[1].length() * corr.dxj.length();
             let l = mi * x0[0].cross(corr.dxi) + mj * x0[1].cross(corr.dxj);
             assert!(l.length() <= 1e-12 * l_scale, "angular: {l} vs {l_scale}");
         }
@@ -254,14 +261,15 @@ mod tests {
 
     #[test]
     fn correction_falls_back_to_the_current_direction_after_a_large_turn() {
+        const _: () = assert!(START_DIRECTION_MIN_COS > 0.5 && START_DIRECTION_MIN_COS < 1.0);
         let x = [DVec3::ZERO, DVec3::new(0.0, 2.0, 0.0)];
         let x0 = [DVec3::ZERO, DVec3::new(1.0, 0.0, 0.0)];
         let corr = project_distance(x, x0, [1.0, 1.0], 1.0, &EdgeMaterial::HARD, 0.0, H).unwrap();
         assert!(corr.dxj.x.abs() < 1e-15 && corr.dxj.y < 0.0);
-        // Within 60°, the start direction is used and the edge still reaches its length
+        // Within the bound, the start direction is used and the edge still reaches its length
         // after a few passes (Newton along d).
         let x0 = [DVec3::ZERO, DVec3::new(1.0, 0.2, 0.0)];
-        let mut x = [DVec3::ZERO, DVec3::new(0.3, 1.5, 0.0)];
+        let mut x = [DVec3::ZERO, DVec3::new(1.3, 0.5, 0.0)];
         for _ in 0..20 {
             let c = project_distance(x, x0, [1.0, 1.0], 1.0, &EdgeMaterial::HARD, 0.0, H).unwrap();
             x[0] += c.dxi;

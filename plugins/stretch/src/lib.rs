@@ -30,7 +30,7 @@
 //! ```
 //!
 //! computed by [`nucleus_sdk::xpbd::delta_lambda`], where `d` is the edge's direction at the
-//! start of the substep (SHAKE; `d = n` if the edge turned by more than 60° or had no length).
+//! start of the substep (SHAKE; `d = n` if the edge turned by more than ~26° within the substep or had no length).
 //! `α = 0` is a hard constraint. Both corrections are weighted by the inverse masses and lie
 //! along the start direction, so with `v = (x − x0)/h` every step conserves linear *and*
 //! angular momentum exactly (a correction along the current `n` changes `L` by
