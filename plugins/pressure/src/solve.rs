@@ -1,0 +1,235 @@
+//! The two pressure models as pure scalar functions of a chamber's volume `V`, its
+//! generalized inverse mass `S = Σ wᵢ|gᵢ|²` and its multiplier `λ`. The group computes `V`,
+//! `gᵢ` and `S` with [`crate::geometry::Surface`], calls one of these, and moves every
+//! vertex by `Δxᵢ = wᵢ gᵢ Δλ`.
+//!
+//! See the [crate docs](crate) for the derivations and units.
+
+use nucleus_sdk::xpbd;
+
+/// The characteristic acoustic impedance of air, `ρc` (Pa·s/m): 1.204 kg/m³ × 343 m/s at
+/// 20 °C. A hole of area `A` under a pressure difference `Δp` lets out the volume flow
+/// `A Δp / (ρc)` (see [`leak`]).
+pub const AIR_IMPEDANCE: f64 = 413.0;
+
+/// `Δλ` of one XPBD step of the volume constraint `C = V − V_target − α p` with compliance
+/// `α` (m³/Pa) and a constant gauge pressure `p` (Pa), given the multiplier `λ` (Pa·s²)
+/// accumulated in this substep of length `h`. `λ/h²` is the gauge pressure the constraint
+/// applies. 0 when no vertex can move (`S = 0`).
+#[inline]
+pub fn volume_delta_lambda(
+    volume: f64,
+    target: f64,
+    alpha: f64,
+    pressure: f64,
+    s: f64,
+    lambda: f64,
+    h: f64,
+) -> f64 {
+    let c = volume - target - alpha * pressure;
+    xpbd::delta_lambda(c, s, alpha, lambda, h)
+}
+
+/// `Δλ` of one Newton step of the ideal gas: the implicit equations of the substep
+/// `M(x − x̃) = g λ` and `λ/h² = n/V(x) − p_atm`, linearized with `dV = gᵀΔx = S Δλ` and
+/// `d(n/V)/dV = −n/V²`:
+///
+/// ```text
+/// Δλ = (h² (n/V − p_atm) − λ) / (1 + h² (n/V²) S)
+/// ```
+///
+/// This is the XPBD step of a volume constraint whose compliance is the gas's own, `α = V/p`
+/// (its isothermal bulk modulus is `p`), so the gas is integrated implicitly: stable however
+/// stiff the air. `volume` must be positive (the caller floors it); `amount` is `n = pV`
+/// (Pa·m³).
+#[inline]
+pub fn gas_delta_lambda(
+    volume: f64,
+    amount: f64,
+    ambient: f64,
+    s: f64,
+    lambda: f64,
+    h: f64,
+) -> f64 {
+    if volume.is_nan() || volume <= 0.0 {
+        return 0.0;
+    }
+    let pressure = amount / volume;
+    let h2 = h * h;
+    let denom = 1.0 + h2 * pressure / volume * s;
+    if !denom.is_finite() {
+        return 0.0;
+    }
+    (h2 * (pressure - ambient) - lambda) / denom
+}
+
+/// The amount of gas after a substep of length `h` (Pa·m³): the pump adds `pump_rate·h`,
+/// and the openings leak. Through openings of total area `A` the volume flow out is
+/// `Q = (1 − τ) A (p − p_atm) / (ρc)` ([`AIR_IMPEDANCE`]), carrying the gas at the upwind
+/// pressure (`p` out, `p_atm` in), so
+///
+/// ```text
+/// dn/dt = −k (n − p_atm V),   k = (1 − τ) A max(p, p_atm) / (ρc V)
+/// ```
+///
+/// which is integrated exactly over the substep with `V` and `k` frozen:
+/// `n ← p_atm V + (n − p_atm V) e^{−k h}`: the gauge pressure decays toward 0 and never
+/// overshoots, however large the hole. Never negative (a pump drawing air out stops at
+/// vacuum).
+pub fn leak(
+    amount: f64,
+    volume: f64,
+    ambient: f64,
+    open_area: f64,
+    air_tightness: f64,
+    pump_rate: f64,
+    h: f64,
+) -> f64 {
+    let mut n = amount;
+    let leakiness = (1.0 - air_tightness) * open_area;
+    if leakiness > 0.0 && volume > 0.0 {
+        let upwind = (amount / volume).max(ambient);
+        let k = leakiness * upwind / (AIR_IMPEDANCE * volume);
+        let at_ambient = ambient * volume;
+        n = at_ambient + (n - at_ambient) * (-k * h).exp();
+    }
+    (n + pump_rate * h).max(0.0)
+}
+
+/// The work the gas can do on its surroundings as it expands or contracts isothermally to
+/// ambient pressure (J): `U(V) = p_atm V − n − n ln(p_atm V / n)`, the potential whose force
+/// is `−dU/dV = n/V − p_atm`, shifted to 0 at equilibrium (`n/V = p_atm`). Never negative.
+pub fn gas_energy(volume: f64, amount: f64, ambient: f64) -> f64 {
+    if !(volume > 0.0 && amount > 0.0 && ambient > 0.0) {
+        return 0.0;
+    }
+    let u = ambient * volume - amount - amount * (ambient * volume / amount).ln();
+    u.max(0.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const H: f64 = 1.0 / 600.0;
+
+    #[test]
+    fn hard_volume_constraint_reaches_its_target_linearly_in_one_step() {
+        // With V linear in λ (V = V0 + S λ), one step lands on the target exactly.
+        let (v0, target, s) = (1.0, 1.5, 0.25);
+        let dl = volume_delta_lambda(v0, target, 0.0, 0.0, s, 0.0, H);
+        assert!((v0 + s * dl - target).abs() < 1e-15);
+        // The applied pressure λ/h² is positive: the surface is pushed out.
+        assert!(dl > 0.0);
+    }
+
+    #[test]
+    fn compliant_volume_constraint_settles_where_pressure_balances_the_spring() {
+        // An external spring k on the volume fights the constraint: V = V0 − p/k with p the
+        // pressure the constraint applies; the equilibrium is p = (target + α p_c − V)/α.
+        let (target, alpha, p_c, s) = (2.0, 1e-4, 500.0, 1e-3);
+        let (mut v, mut lambda) = (1.0, 0.0);
+        for _ in 0..2000 {
+            let dl = volume_delta_lambda(v, target, alpha, p_c, s, lambda, H);
+            lambda += dl;
+            v += s * dl;
+        }
+        let p = lambda / (H * H);
+        assert!((p - (target + alpha * p_c - v) / alpha).abs() < 1e-6 * p.abs());
+    }
+
+    #[test]
+    fn gas_steps_converge_to_the_implicit_substep() {
+        // A piston of generalized inverse mass S and nothing else: the substep's implicit
+        // equations are V = V0 + S λ and λ/h² = n/V − p_atm. Newton steps with λ
+        // accumulating converge to them quadratically.
+        let (ambient, v0, s) = (1e5, 1e-3, 4e-2);
+        let n = 1.3e5 * v0;
+        let (mut v, mut lambda) = (v0, 0.0);
+        let mut errors = Vec::new();
+        for _ in 0..6 {
+            let dl = gas_delta_lambda(v, n, ambient, s, lambda, H);
+            lambda += dl;
+            v = v0 + s * lambda;
+            errors.push((lambda / (H * H) - (n / v - ambient)).abs() / ambient);
+        }
+        // Quadratic: each error at most the square of the one before (measured ratio 0.8).
+        for k in 0..3 {
+            assert!(errors[k + 1] <= errors[k] * errors[k], "{errors:?}");
+        }
+        assert!(errors[0] < 0.05 && errors[4] < 1e-14, "{errors:?}");
+        // The piston moved out, and the gas is still above ambient (implicit, no overshoot).
+        assert!(v > v0 && n / v > ambient);
+    }
+
+    #[test]
+    fn gas_step_is_the_xpbd_step_with_the_gas_compliance() {
+        let (v, n, ambient, s, lambda) = (2e-3, 250.0, 1e5, 3e-4, 1e-7);
+        let p = n / v;
+        let alpha = v / p;
+        let c = -alpha * (p - ambient);
+        let xpbd = xpbd::delta_lambda(c, s, alpha, lambda, H);
+        let gas = gas_delta_lambda(v, n, ambient, s, lambda, H);
+        assert!((xpbd - gas).abs() < 1e-12 * gas.abs(), "{xpbd} vs {gas}");
+    }
+
+    #[test]
+    fn degenerate_gas_steps_are_zero_not_nan() {
+        assert_eq!(gas_delta_lambda(0.0, 1.0, 1e5, 1.0, 0.0, H), 0.0);
+        assert_eq!(gas_delta_lambda(-1.0, 1.0, 1e5, 1.0, 0.0, H), 0.0);
+        assert_eq!(gas_delta_lambda(f64::NAN, 1.0, 1e5, 1.0, 0.0, H), 0.0);
+        assert!(gas_delta_lambda(1e-300, 1e300, 1e5, 1.0, 0.0, H).is_finite());
+        assert_eq!(volume_delta_lambda(1.0, 2.0, 0.0, 0.0, 0.0, 0.0, H), 0.0);
+    }
+
+    #[test]
+    fn airtight_chamber_keeps_its_gas_and_the_pump_adds_exactly() {
+        let n = leak(100.0, 1e-3, 1e5, 0.5, 1.0, 0.0, H);
+        assert_eq!(n, 100.0);
+        let n = leak(100.0, 1e-3, 1e5, 0.0, 0.0, 0.0, H);
+        assert_eq!(n, 100.0, "no opening, no leak");
+        let n = leak(100.0, 1e-3, 1e5, 0.0, 1.0, 30.0, 0.5);
+        assert_eq!(n, 115.0);
+        assert_eq!(leak(1.0, 1e-3, 1e5, 0.0, 1.0, -30.0, 0.5), 0.0, "vacuum");
+    }
+
+    #[test]
+    fn leak_decays_the_gauge_pressure_at_the_predicted_rate() {
+        let (v, ambient, area, tight) = (2e-3, 1e5, 1e-4, 0.5);
+        let p = 1.02e5;
+        let n0 = p * v;
+        // Small steps of the exact update agree with the rate law dn/dt = −Q p.
+        let dt = 1e-6;
+        let n1 = leak(n0, v, ambient, area, tight, 0.0, dt);
+        let rate = (1.0 - tight) * area * (p - ambient) / AIR_IMPEDANCE * p;
+        assert!(((n0 - n1) / dt - rate).abs() < 1e-4 * rate);
+        // A huge step never overshoots ambient.
+        let n = leak(n0, v, ambient, 1e3, 0.0, 0.0, 1.0);
+        assert!((n - ambient * v).abs() < 1e-12 * n0);
+        // Lower tightness leaks faster; below ambient air comes in.
+        let a = leak(n0, v, ambient, area, 0.9, 0.0, 0.01);
+        let b = leak(n0, v, ambient, area, 0.1, 0.0, 0.01);
+        assert!(b < a && a < n0);
+        let under = 0.9e5 * v;
+        assert!(leak(under, v, ambient, area, 0.5, 0.0, 0.01) > under);
+    }
+
+    #[test]
+    fn gas_energy_is_zero_at_ambient_and_its_slope_is_the_gauge_pressure() {
+        let (ambient, n) = (1e5, 200.0);
+        let v_eq = n / ambient;
+        assert!(gas_energy(v_eq, n, ambient).abs() < 1e-12);
+        for v in [0.5 * v_eq, 0.9 * v_eq, 1.3 * v_eq] {
+            assert!(gas_energy(v, n, ambient) > 0.0);
+            let eps = 1e-9 * v;
+            let slope =
+                (gas_energy(v + eps, n, ambient) - gas_energy(v - eps, n, ambient)) / (2.0 * eps);
+            let gauge = n / v - ambient;
+            assert!(
+                (-slope - gauge).abs() < 1e-4 * gauge.abs(),
+                "{slope} vs {gauge}"
+            );
+        }
+        assert_eq!(gas_energy(0.0, n, ambient), 0.0);
+    }
+}
