@@ -256,6 +256,9 @@ pub fn manifest(spec: &PluginSpec) -> Result<String, String> {
         out.push_str(line);
         out.push('\n');
     }
+    while out.contains("\n\n\n") {
+        out = out.replace("\n\n\n", "\n\n");
+    }
     out.push_str(
         "\n# A workspace of its own: this crate builds anywhere, outside any other workspace.\n\
          [workspace]\n",
