@@ -404,6 +404,37 @@ pub(crate) mod tests {
     }
 
     #[test]
+    fn a_step_along_frozen_normals_conserves_momentum_with_any_masses() {
+        // Δxᵢ = wᵢ gᵢ s with g frozen at x0: Σ mᵢ Δxᵢ = s Σ gᵢ = 0 and
+        // Σ mᵢ x0ᵢ × Δxᵢ = s Σ x0ᵢ × gᵢ = 0, whatever the masses (1 g to 1 t here), so the
+        // discrete momenta of the step, Σ m (x − x0)/h and Σ m x0 × x / h, do not change.
+        let mut rng = Rng(2024);
+        for _ in 0..20 {
+            let mut m = Mesh::uv_sphere(0.3, 6, 8);
+            m.jiggle(&mut rng, 0.05);
+            let g = m.normals();
+            let w: Vec<f64> = (0..m.x.len())
+                .map(|_| 10f64.powf(rng.range(-3.0, 3.0)))
+                .collect();
+            let mut x = m.x.clone();
+            let s = rng.range(-1e-3, 1e-3);
+            m.surface().displace(&mut x, &g, &w, s);
+            // Up to the rounding of the positions themselves (ε|x| per coordinate).
+            let (mut p, mut l, mut p_floor, mut l_floor) = (DVec3::ZERO, DVec3::ZERO, 0.0, 0.0);
+            for ((x1, x0), w) in x.iter().zip(&m.x).zip(&w) {
+                let m_dx = (*x1 - *x0) / *w;
+                p += m_dx;
+                l += x0.cross(m_dx);
+                let rounding = 4.0 * f64::EPSILON * x0.length() / *w;
+                p_floor += m_dx.length() * 1e-14 + rounding;
+                l_floor += x0.length() * (m_dx.length() * 1e-14 + rounding);
+            }
+            assert!(p.length() < p_floor, "{p} vs {p_floor}");
+            assert!(l.length() < l_floor, "{l} vs {l_floor}");
+        }
+    }
+
+    #[test]
     fn normals_of_an_open_surface_sum_to_its_vector_area() {
         // The open box pushed from inside: the net force is the pressure times the missing
         // face's area, along the opening's outward normal reversed (−z).
