@@ -99,6 +99,7 @@
 
 pub mod distance;
 pub mod group;
+pub mod tether;
 
 #[cfg(test)]
 mod tests;
@@ -108,19 +109,33 @@ pub use group::{StretchGroup, StretchParams};
 
 use nucleus_sdk::KindSpec;
 
-/// The kinds this plugin provides: `stretch`.
+/// The kinds this plugin provides: `stretch` and `tether`.
 pub fn kinds() -> Vec<KindSpec> {
-    vec![KindSpec {
-        name: "stretch",
-        doc: "XPBD distance constraint C = |xj - xi| - l on every edge of the target objects \
+    vec![
+        KindSpec {
+            name: "stretch",
+            doc: "XPBD distance constraint C = |xj - xi| - l on every edge of the target objects \
               (curves, and the edges of triangles and tetrahedra), with separate compliances \
               for stretch and compression and an optional damper along each edge.",
-        default_order: 0,
-        default_importance: 1,
-        residual_unit: "strain",
-        params: StretchParams::specs(),
-        factory: group::build,
-    }]
+            default_order: 0,
+            default_importance: 1,
+            residual_unit: "strain",
+            params: StretchParams::specs(),
+            factory: group::build,
+        },
+        KindSpec {
+            name: "tether",
+            doc: "Long-range attachments (Kim et al. 2012): each dynamic particle may be no \
+                  farther from its nearest pins than the shortest path along the cloth at rest \
+                  (unilateral, C = |x - pin| - geodesic <= 0). Keeps hanging cloth from \
+                  stretching at the pins at any resolution; never resists folding.",
+            default_order: 1,
+            default_importance: 1,
+            residual_unit: "relative overshoot",
+            params: tether::TetherParams::specs(),
+            factory: tether::build,
+        },
+    ]
 }
 
 nucleus_sdk::export_plugin!(nucleus_sdk::PluginDef {

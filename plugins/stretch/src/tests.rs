@@ -213,9 +213,10 @@ fn bad_parameter(mesh: &Mesh, params: &str) -> PluginError {
 fn kind_describes_itself() {
     let info = nucleus_plugin().info();
     assert_eq!(info.name.as_str(), "stretch");
-    let [kind] = info.kinds.as_slice() else {
-        panic!("one kind expected");
+    let [kind, tether] = info.kinds.as_slice() else {
+        panic!("two kinds expected: stretch and tether");
     };
+    assert_eq!(tether.name.as_str(), "tether");
     assert_eq!(kind.name.as_str(), "stretch");
     assert_eq!(kind.default_order, 0);
     assert_eq!(kind.default_importance, 1);

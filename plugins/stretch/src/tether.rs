@@ -1,0 +1,332 @@
+//! The `tether` kind: long-range attachments (Kim, Chentanez, Müller 2012, "Long Range
+//! Attachments — A Method to Simulate Inextensible Clothing in Computer Games").
+//!
+//! A cloth hanging from pins can be no farther from each pin than the shortest path between
+//! them along the cloth at rest. Each dynamic particle `i` is tethered to its `k` nearest
+//! pinned particles `p` (nearest along the mesh, by Dijkstra over the rest edge lengths), with
+//! the *unilateral* constraint
+//!
+//! ```text
+//! C = |xᵢ − xₚ| − s·gᵢₚ ≤ 0          (gᵢₚ the geodesic rest distance, s = `scale`)
+//! ```
+//!
+//! projected only when violated (`C > 0`): `xᵢ ← xᵢ − n·C` for the hard tether (`α = 0`),
+//! or by the XPBD step with compliance `α` otherwise (the pin has inverse mass 0, so only
+//! the particle moves). Plain Gauss-Seidel needs O(N) passes to carry a pin's pull through an
+//! N-edge cloth; a tether carries it in one, so the stretch of the edges next to the pins —
+//! where the whole weight hangs — stops growing with the resolution. Tethers never resist
+//! compression or bending: the cloth stays free to fold.
+//!
+//! Pins move with the scene (the tether reads the pin's current position), and a particle
+//! that cannot reach any pin along the mesh gets no tether.
+
+use std::cmp::Ordering;
+use std::collections::BinaryHeap;
+
+use nucleus_sdk::params::{self, ParamSpec};
+use nucleus_sdk::prelude::*;
+use serde::Deserialize;
+
+/// The parameters of the `tether` kind.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TetherParams {
+    /// Pins per particle: each particle is tethered to its `pins_per_particle` nearest pins.
+    pub pins_per_particle: i64,
+    /// Slack: the tether's length is `scale` × the geodesic rest distance.
+    pub scale: f64,
+    /// Compliance of the tether when taut (m/N); 0 is hard.
+    pub compliance: f64,
+}
+
+impl TetherParams {
+    /// The parameter descriptions.
+    pub fn specs() -> Vec<ParamSpec> {
+        vec![
+            ParamSpec::integer("pins_per_particle", 2)
+                .doc("each particle is tethered to this many nearest pins (along the cloth)")
+                .range(1.0, 64.0),
+            ParamSpec::number("scale", 1.0)
+                .doc("tether length as a multiple of the geodesic rest distance (slack > 1)")
+                .range(1.0, 10.0),
+            ParamSpec::number("compliance", 0.0)
+                .unit("m/N")
+                .doc("compliance of a taut tether; 0 is hard")
+                .range(0.0, f64::INFINITY),
+        ]
+    }
+}
+
+/// One search state of the k-nearest-sources Dijkstra.
+#[derive(Clone, Copy, PartialEq)]
+struct Item {
+    dist: f64,
+    node: u32,
+    source: u32,
+}
+
+impl Eq for Item {}
+
+impl Ord for Item {
+    fn cmp(&self, other: &Self) -> Ordering {
+        // Min-heap on distance; ties broken by node then source, so the result is
+        // deterministic.
+        other
+            .dist
+            .total_cmp(&self.dist)
+            .then_with(|| other.node.cmp(&self.node))
+            .then_with(|| other.source.cmp(&self.source))
+    }
+}
+
+impl PartialOrd for Item {
+    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+/// For every node, up to `k` nearest sources and their distances along the graph, by a
+/// multi-source Dijkstra that settles each node once per source, at most `k` times:
+/// `O(k·E·log)`. `adjacency[v]` lists `(neighbour, length)`. Results are sorted by distance.
+pub fn k_nearest_sources(
+    adjacency: &[Vec<(u32, f64)>],
+    sources: &[u32],
+    k: usize,
+) -> Vec<Vec<(u32, f64)>> {
+    let mut found: Vec<Vec<(u32, f64)>> = vec![Vec::new(); adjacency.len()];
+    let mut heap = BinaryHeap::new();
+    for &s in sources {
+        heap.push(Item {
+            dist: 0.0,
+            node: s,
+            source: s,
+        });
+    }
+    while let Some(Item { dist, node, source }) = heap.pop() {
+        let settled = &mut found[node as usize];
+        if settled.len() >= k || settled.iter().any(|&(s, _)| s == source) {
+            continue;
+        }
+        settled.push((source, dist));
+        for &(next, len) in &adjacency[node as usize] {
+            let f = &found[next as usize];
+            if f.len() < k && !f.iter().any(|&(s, _)| s == source) {
+                heap.push(Item {
+                    dist: dist + len,
+                    node: next,
+                    source,
+                });
+            }
+        }
+    }
+    found
+}
+
+/// One tether projection: particle `x` (inverse mass `w`) toward pin `p`, length `len`.
+/// Returns the particle's displacement and `Δλ`, or `None` when the tether is slack, the
+/// particle sits on the pin, or the particle cannot move.
+#[inline]
+pub fn project_tether(
+    x: DVec3,
+    w: f64,
+    p: DVec3,
+    len: f64,
+    alpha: f64,
+    lambda: f64,
+    h: f64,
+) -> Option<(DVec3, f64)> {
+    let d = x - p;
+    let dist = d.length();
+    let c = dist - len;
+    if c <= 0.0 || w <= 0.0 || !(dist > 1e-12) {
+        return None;
+    }
+    let n = d / dist;
+    let dl = nucleus_sdk::xpbd::delta_lambda(c, w, alpha, lambda, h);
+    Some((n * (w * dl), dl))
+}
+
+/// The `tether` group: SoA batch of (particle, pin, length).
+pub struct TetherGroup {
+    particle: Vec<u32>,
+    pin: Vec<u32>,
+    length: Vec<f64>,
+    lambda: Vec<f64>,
+    compliance: f64,
+}
+
+impl TetherGroup {
+    /// Builds the tethers of the target objects.
+    pub fn new(p: &TetherParams, scene: &SceneView<'_>) -> Result<Self, PluginError> {
+        let rest = scene.rest_positions();
+        let w = scene.inv_mass.as_slice();
+        let mut g = TetherGroup {
+            particle: Vec::new(),
+            pin: Vec::new(),
+            length: Vec::new(),
+            lambda: Vec::new(),
+            compliance: p.compliance,
+        };
+        let mut seen = Vec::new();
+        for object in scene.targets() {
+            if seen.contains(&object.first) {
+                continue;
+            }
+            seen.push(object.first);
+            let range = object.particles();
+            if range.end > rest.len() || range.end > w.len() {
+                return Err(PluginError::bad_object(
+                    object.name.as_str(),
+                    "the object's particles are outside the scene",
+                ));
+            }
+            let first = object.first;
+            let mut adjacency = vec![Vec::new(); range.len()];
+            for &[i, j] in object.edges.as_slice() {
+                if !range.contains(&(i as usize)) || !range.contains(&(j as usize)) {
+                    return Err(PluginError::bad_object(
+                        object.name.as_str(),
+                        format!("edge ({i}, {j}) is outside the object"),
+                    ));
+                }
+                let len = (rest[j as usize] - rest[i as usize]).length();
+                adjacency[(i - first) as usize].push((j - first, len));
+                adjacency[(j - first) as usize].push((i - first, len));
+            }
+            let pins: Vec<u32> = range
+                .clone()
+                .filter(|&i| w[i] == 0.0)
+                .map(|i| i as u32 - first)
+                .collect();
+            if pins.is_empty() {
+                continue;
+            }
+            let nearest = k_nearest_sources(&adjacency, &pins, p.pins_per_particle as usize);
+            for (local, list) in nearest.iter().enumerate() {
+                let i = first + local as u32;
+                if w[i as usize] == 0.0 {
+                    continue;
+                }
+                for &(pin, dist) in list {
+                    if dist > 0.0 {
+                        g.particle.push(i);
+                        g.pin.push(first + pin);
+                        g.length.push(p.scale * dist);
+                    }
+                }
+            }
+        }
+        g.lambda = vec![0.0; g.particle.len()];
+        Ok(g)
+    }
+}
+
+impl ConstraintGroup for TetherGroup {
+    fn stages(&self) -> Stages {
+        if self.compliance > 0.0 {
+            Stages::PROJECT | Stages::BEGIN_SUBSTEP
+        } else {
+            Stages::PROJECT
+        }
+    }
+
+    fn len(&self) -> usize {
+        self.particle.len()
+    }
+
+    fn begin_substep(&mut self, _ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
+        self.lambda.fill(0.0);
+        Ok(())
+    }
+
+    fn project(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
+        let h = ctx.h;
+        let p = ctx.particles();
+        let (x, w) = (p.x, p.inv_mass);
+        for k in 0..self.particle.len() {
+            let (i, pin) = (self.particle[k] as usize, self.pin[k] as usize);
+            let (Some(&xi), Some(&xp), Some(&wi)) = (x.get(i), x.get(pin), w.get(i)) else {
+                return Err(PluginError::failed(
+                    "tether refers to a particle outside the state",
+                ));
+            };
+            if let Some((dx, dl)) = project_tether(
+                xi,
+                wi,
+                xp,
+                self.length[k],
+                self.compliance,
+                self.lambda[k],
+                h,
+            ) {
+                x[i] = xi + dx;
+                self.lambda[k] += dl;
+            }
+        }
+        Ok(())
+    }
+
+    fn residual(&self, ctx: &SolveContext<'_>) -> Residual {
+        let x = ctx.positions();
+        let (mut max, mut sq, mut energy) = (0.0f64, 0.0, 0.0);
+        for k in 0..self.particle.len() {
+            let (i, pin) = (self.particle[k] as usize, self.pin[k] as usize);
+            let (Some(xi), Some(xp)) = (x.get(i), x.get(pin)) else {
+                continue;
+            };
+            let c = ((*xi - *xp).length() - self.length[k]).max(0.0);
+            let r = c / self.length[k];
+            max = max.max(r);
+            sq += r * r;
+            if self.compliance > 0.0 {
+                energy += 0.5 * c * c / self.compliance;
+            }
+        }
+        let n = self.particle.len();
+        Residual {
+            count: n as u64,
+            max,
+            rms: if n > 0 { (sq / n as f64).sqrt() } else { 0.0 },
+            energy,
+        }
+    }
+}
+
+/// The factory of the `tether` kind.
+pub fn build(json: &str, scene: &SceneView<'_>) -> Result<Box<dyn ConstraintGroup>, PluginError> {
+    let p: TetherParams = params::parse(json)?;
+    Ok(Box::new(TetherGroup::new(&p, scene)?))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn k_nearest_sources_on_a_path_are_the_graph_distances() {
+        // 0 - 1 - 2 - 3 - 4 with unit edges; sources 0 and 4.
+        let mut adj = vec![Vec::new(); 5];
+        for i in 0..4u32 {
+            adj[i as usize].push((i + 1, 1.0));
+            adj[i as usize + 1].push((i, 1.0));
+        }
+        let near = k_nearest_sources(&adj, &[0, 4], 2);
+        assert_eq!(near[1], vec![(0, 1.0), (4, 3.0)]);
+        assert_eq!(near[2], vec![(0, 2.0), (4, 2.0)]);
+        let near1 = k_nearest_sources(&adj, &[0, 4], 1);
+        assert_eq!(near1[3], vec![(4, 1.0)]);
+    }
+
+    #[test]
+    fn slack_tether_does_nothing_and_taut_one_pulls_back_exactly() {
+        let p = DVec3::ZERO;
+        assert!(project_tether(DVec3::new(0.5, 0.0, 0.0), 1.0, p, 1.0, 0.0, 0.0, 0.01).is_none());
+        let x = DVec3::new(0.0, -2.0, 0.0);
+        let (dx, _) = project_tether(x, 1.0, p, 1.5, 0.0, 0.0, 0.01).unwrap();
+        assert!(((x + dx).length() - 1.5).abs() < 1e-15);
+        // A particle with infinite mass never moves.
+        assert!(project_tether(x, 0.0, p, 1.5, 0.0, 0.0, 0.01).is_none());
+        // On the pin: no direction, no NaN.
+        assert!(project_tether(p, 1.0, p, 0.0, 0.0, 0.0, 0.01).is_none());
+    }
+}
