@@ -138,7 +138,7 @@ pub fn project_tether(
     let d = x - p;
     let dist = d.length();
     let c = dist - len;
-    if c <= 0.0 || w <= 0.0 || !(dist > 1e-12) {
+    if c <= 0.0 || w <= 0.0 || dist.is_nan() || dist <= 1e-12 {
         return None;
     }
     let n = d / dist;
