@@ -1,0 +1,101 @@
+//! No allocation inside the step loop: after building, stepping a scene allocates nothing —
+//! not in the core, not in the plugins. The plugins are linked in-process here (the same code
+//! as their cdylibs) so this binary's counting allocator sees every allocation.
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+
+use nucleus_core::{Registry, Simulation};
+
+struct Counting;
+
+static COUNTING: AtomicBool = AtomicBool::new(false);
+static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
+
+// SAFETY: forwards every call to the system allocator unchanged; only counts.
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        if COUNTING.load(Ordering::Relaxed) {
+            ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        }
+        // SAFETY: same contract as the caller's.
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        // SAFETY: `ptr` was allocated by `System` with `layout`.
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        if COUNTING.load(Ordering::Relaxed) {
+            ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        }
+        // SAFETY: same contract as the caller's.
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+fn allocations_while(f: impl FnOnce()) -> usize {
+    ALLOCATIONS.store(0, Ordering::SeqCst);
+    COUNTING.store(true, Ordering::SeqCst);
+    f();
+    COUNTING.store(false, Ordering::SeqCst);
+    ALLOCATIONS.load(Ordering::SeqCst)
+}
+
+fn registry() -> Registry {
+    let mut reg = Registry::default();
+    reg.add_in_process(nucleus_stretch::nucleus_plugin());
+    reg
+}
+
+const SCENE: &str = r#"
+[solver]
+substeps = 4
+iterations = 2
+damping = 0.3
+[[objects]]
+name = "cloth"
+pins = ["corners:row0"]
+pin_motion = { velocity = [0.1, 0.0, 0.0] }
+[objects.grid]
+size = [1.0, 1.0]
+resolution = [12, 12]
+[[objects]]
+name = "rope"
+pins = ["start"]
+[objects.rope]
+start = [0.0, 1.0, 0.0]
+end = [1.0, 1.0, 0.0]
+segments = 10
+[[constraints]]
+kind = "stretch"
+params = { compliance = 1e-6, damping = 0.1 }
+[[constraints]]
+kind = "tether"
+objects = ["cloth"]
+params = { compliance = 1e-7 }
+"#;
+
+#[test]
+fn stepping_allocates_nothing() {
+    let mut sim = Simulation::from_toml(SCENE, &registry()).unwrap();
+    sim.step_frame().unwrap();
+    let n = allocations_while(|| {
+        for _ in 0..10 {
+            sim.step_frame().unwrap();
+        }
+    });
+    assert_eq!(n, 0, "{n} allocations in 10 frames of stepping");
+}
+
+#[test]
+fn the_counter_sees_allocations() {
+    let n = allocations_while(|| {
+        let v: Vec<u64> = std::hint::black_box(vec![1, 2, 3]);
+        drop(v);
+    });
+    assert!(n >= 1);
+}
