@@ -1,21 +1,20 @@
 //! Determinism: the same scene with the same plugins gives bit-identical output — every OBJ
-//! frame byte for byte, and every stats column except the wall-clock time.
+//! frame byte for byte, and every stats column except the wall-clock time — whatever the
+//! thread count (`RAYON_NUM_THREADS`, which the plugins' parallel loops use).
 
 use std::process::Command;
 
 use nucleus_tests::*;
 
 fn run_once(tag: &str, scene: &str, threads: &str) -> std::path::PathBuf {
+    run_with(tag, scene, threads, &["--frames", "30"])
+}
+
+fn run_with(tag: &str, scene: &str, threads: &str, extra: &[&str]) -> std::path::PathBuf {
     let out = temp_dir(tag);
     let status = Command::new(host_bin())
-        .args([
-            "run",
-            scene,
-            "--quiet",
-            "--frames",
-            "30",
-            "--no-default-plugins",
-        ])
+        .args(["run", scene, "--quiet", "--no-default-plugins"])
+        .args(extra)
         .args(["--plugins", plugin_dir().to_str().unwrap()])
         .args(["--out", out.to_str().unwrap()])
         .env("RAYON_NUM_THREADS", threads)
@@ -58,6 +57,26 @@ fn two_runs_of_the_default_scene_are_bit_identical() {
         assert!(fa == fb, "{name} differs between two runs");
     }
     assert_eq!(stats_without_wall(&a), stats_without_wall(&b));
+}
+
+#[test]
+fn one_and_two_threads_give_bit_identical_frames() {
+    // 96 × 96: every colour of the stretch batch is large enough to be split over threads.
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/drape.toml");
+    let set = [
+        "--set",
+        "objects.0.grid.resolution=[96,96]",
+        "--frames",
+        "4",
+    ];
+    let a = run_with("threads-1", scene, "1", &set);
+    let b = run_with("threads-2", scene, "2", &set);
+    for f in 0..=4 {
+        let name = format!("frame_{f:04}.obj");
+        let fa = std::fs::read(a.join(&name)).unwrap();
+        let fb = std::fs::read(b.join(&name)).unwrap();
+        assert!(fa == fb, "{name} differs between 1 and 2 threads");
+    }
 }
 
 #[test]

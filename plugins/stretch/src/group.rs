@@ -91,6 +91,68 @@ pub struct StretchGroup {
     material: EdgeMaterial,
     /// Particle slices must hold more than this index (`None` for an empty group).
     max_index: Option<u32>,
+    /// Consecutive index ranges of the batch, each flagged `true` if its edges share no
+    /// particle (one colour) and may be projected in parallel.
+    batches: Vec<(std::ops::Range<usize>, bool)>,
+}
+
+/// Below this many edges a colour is projected on the calling thread: the fork-join costs
+/// more than it saves.
+const PARALLEL_MIN_EDGES: usize = 4096;
+
+/// Edges per parallel task.
+const PARALLEL_CHUNK: usize = 1024;
+
+/// A raw pointer to the positions, shared by the threads of one colour.
+#[derive(Clone, Copy)]
+struct Positions(*mut DVec3);
+
+// SAFETY: the pointer is only dereferenced inside `project_edges`, whose callers guarantee
+// that concurrent calls touch disjoint particles (edges of one colour share none).
+unsafe impl Send for Positions {}
+// SAFETY: as above.
+unsafe impl Sync for Positions {}
+
+/// Projects `ids[k]` for every `k`, in order.
+///
+/// # Safety
+/// `x` points to at least `max index + 1` positions, valid for the duration of the call, and
+/// no other thread reads or writes the positions of these edges' particles meanwhile.
+#[allow(clippy::too_many_arguments)]
+unsafe fn project_edges(
+    x: Positions,
+    x0: &[DVec3],
+    w: &[f64],
+    ids: &[[u32; 2]],
+    rest: &[f64],
+    lambda: &mut [f64],
+    material: &EdgeMaterial,
+    h: f64,
+) {
+    for ((&[i, j], &rest), lambda) in ids.iter().zip(rest).zip(lambda) {
+        let (i, j) = (i as usize, j as usize);
+        // SAFETY: indices are in bounds (checked against the state before the pass) and the
+        // caller guarantees exclusive access to particles i and j.
+        let (pi, pj) = unsafe { (x.0.add(i), x.0.add(j)) };
+        // SAFETY: as above.
+        let (xi, xj) = unsafe { (*pi, *pj) };
+        if let Some(c) = project_distance(
+            [xi, xj],
+            [x0[i], x0[j]],
+            [w[i], w[j]],
+            rest,
+            material,
+            *lambda,
+            h,
+        ) {
+            // SAFETY: as above.
+            unsafe {
+                *pi = xi + c.dxi;
+                *pj = xj + c.dxj;
+            }
+            *lambda += c.delta_lambda;
+        }
+    }
 }
 
 impl StretchGroup {
@@ -127,6 +189,7 @@ impl StretchGroup {
             lambda: Vec::new(),
             material: params.material(),
             max_index: None,
+            batches: Vec::new(),
         };
         for &t in scene.targets.as_slice() {
             let t = t as usize;
@@ -161,9 +224,17 @@ impl StretchGroup {
                 group.max_index = group.max_index.max(Some(i.max(j)));
             }
         }
-        let order = independent_sets_order(&group.ids, particles);
+        let colours = edge_colours(&group.ids, particles);
+        let order = independent_sets_order(&colours);
         group.ids = order.iter().map(|&k| group.ids[k]).collect();
         group.rest = order.iter().map(|&k| group.rest[k]).collect();
+        let mut start = 0;
+        while start < order.len() {
+            let colour = colours[order[start]];
+            let end = start + order[start..].partition_point(|&k| colours[k] == colour);
+            group.batches.push((start..end, colour < OVERFLOW_COLOUR));
+            start = end;
+        }
         group.lambda = vec![0.0; group.ids.len()];
         Ok(group)
     }
@@ -216,8 +287,12 @@ impl ConstraintGroup for StretchGroup {
         Ok(())
     }
 
-    /// One Gauss-Seidel pass over the edges in index order: deterministic, no allocation.
+    /// One Gauss-Seidel pass over the edges in batch order, colour by colour. A large colour
+    /// is split over rayon's threads: its edges share no particle, so every edge reads and
+    /// writes only its own two particles and the result is bit-identical whatever the thread
+    /// count. No allocation.
     fn project(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
+        use rayon::prelude::*;
         let h = ctx.h;
         if !h.is_finite() || h <= 0.0 {
             return Err(PluginError::failed(format!(
@@ -226,18 +301,27 @@ impl ConstraintGroup for StretchGroup {
         }
         let p = ctx.particles();
         self.check_particles(p.x.len().min(p.x0.len()).min(p.inv_mass.len()))?;
-        let (x, x0, w) = (p.x, p.x0, p.inv_mass);
+        let (x0, w) = (p.x0, p.inv_mass);
+        let x = Positions(p.x.as_mut_ptr());
         let material = self.material;
-        for ((&[i, j], &rest), lambda) in self.ids.iter().zip(&self.rest).zip(&mut self.lambda) {
-            let (i, j) = (i as usize, j as usize);
-            let (xi, xj) = (x[i], x[j]);
-            let start = [x0[i], x0[j]];
-            if let Some(c) =
-                project_distance([xi, xj], start, [w[i], w[j]], rest, &material, *lambda, h)
-            {
-                x[i] = xi + c.dxi;
-                x[j] = xj + c.dxj;
-                *lambda += c.delta_lambda;
+        let threads = rayon::current_num_threads();
+        for (range, independent) in &self.batches {
+            let ids = &self.ids[range.clone()];
+            let rest = &self.rest[range.clone()];
+            let lambda = &mut self.lambda[range.clone()];
+            if *independent && threads > 1 && ids.len() >= PARALLEL_MIN_EDGES {
+                ids.par_chunks(PARALLEL_CHUNK)
+                    .zip(rest.par_chunks(PARALLEL_CHUNK))
+                    .zip(lambda.par_chunks_mut(PARALLEL_CHUNK))
+                    .for_each(|((ids, rest), lambda)| {
+                        // SAFETY: `x` comes from the exclusive borrow of the positions held
+                        // for this whole call, indices were checked above, and the edges of
+                        // one colour share no particle, so the chunks touch disjoint ones.
+                        unsafe { project_edges(x, x0, w, ids, rest, lambda, &material, h) }
+                    });
+            } else {
+                // SAFETY: as above, on this thread only.
+                unsafe { project_edges(x, x0, w, ids, rest, lambda, &material, h) }
             }
         }
         Ok(())
@@ -299,9 +383,8 @@ fn edge_colours(ids: &[[u32; 2]], particles: usize) -> Vec<usize> {
 /// colour ([`edge_colours`]), each colour in the given order. Deterministic; the projection
 /// stays plain sequential Gauss-Seidel over it, but consecutive edges no longer wait for each
 /// other's position writes, so the processor overlaps their square roots and divisions.
-fn independent_sets_order(ids: &[[u32; 2]], particles: usize) -> Vec<usize> {
-    let colours = edge_colours(ids, particles);
-    let mut order: Vec<usize> = (0..ids.len()).collect();
+fn independent_sets_order(colours: &[usize]) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..colours.len()).collect();
     order.sort_by_key(|&k| colours[k]); // stable: the given order within a colour
     order
 }
@@ -361,7 +444,7 @@ mod tests {
     fn order_lists_colours_in_turn_keeping_the_given_order_within_each() {
         let ids = grid_edges(5);
         let colours = edge_colours(&ids, 25);
-        let order = independent_sets_order(&ids, 25);
+        let order = independent_sets_order(&edge_colours(&ids, 25));
         let mut seen = order.clone();
         seen.sort_unstable();
         assert_eq!(seen, (0..ids.len()).collect::<Vec<_>>(), "a permutation");
@@ -378,7 +461,7 @@ mod tests {
         let colours = edge_colours(&ids, 71);
         assert_eq!(colours.iter().filter(|&&c| c == OVERFLOW_COLOUR).count(), 6);
         assert_eq!(
-            independent_sets_order(&ids, 71),
+            independent_sets_order(&edge_colours(&ids, 71)),
             (0..70).collect::<Vec<_>>()
         );
     }
