@@ -991,6 +991,10 @@ impl ConstraintGroup for CollisionGroup {
             for c in &self.contacts {
                 c.friction(x, x0, w, self.mu_static, self.mu_dynamic);
             }
+            // Friction moved particles tangentially: one more normal sweep.
+            for c in &mut self.contacts {
+                c.project(x, w);
+            }
             self.project_out_of_colliders(x, w);
             let unresolved = self.fail_safe(x0, x, w);
             self.stats.unresolved += unresolved;
