@@ -1,0 +1,829 @@
+//! Closest points and intersection tests between simplices, at one instant.
+//!
+//! These are the static queries of the collision plugin: the response needs the closest
+//! points of a contact found by [`crate::ccd`] (barycentric weights to distribute the
+//! correction), and tests need ground truth.
+//!
+//! * [`point_segment_closest`], [`point_triangle_closest`], [`segment_segment_closest`]:
+//!   closest points in `f64`. None of them divides by a quantity that can vanish on
+//!   degenerate input: every answer is the best of a few *candidate* points that all lie
+//!   on the simplices (the interior solution when the simplex is well shaped, and the
+//!   closest points of the boundary pieces, which are always well defined), so a zero-length
+//!   edge, a zero-area triangle or parallel segments give a valid, accurate answer, never a
+//!   NaN. The squared distance returned is the one between the returned points.
+//! * [`triangles_intersect`]: an **exact** test — the answer is the one exact real
+//!   arithmetic on the `f64` inputs would give. It uses only the signs of the orientation
+//!   determinants `orient3d` and `orient2d`, computed with a floating-point filter and, when
+//!   the filter cannot decide, exactly with Shewchuk's expansion arithmetic
+//!   ("Adaptive Precision Floating-Point Arithmetic and Fast Robust Geometric Predicates",
+//!   1997). The only assumption is that no product of two coordinate differences overflows
+//!   or underflows (|coordinates| between about 1e-140 and 1e140, or 0), far beyond any scene.
+//!
+//! ## Triangle–triangle intersection
+//!
+//! Two closed triangles (possibly degenerate: collinear or coincident vertices) intersect
+//! iff an edge of one meets the other. If they meet and are not coplanar, their
+//! intersection is a segment or a point on the line common to both planes, whose ends lie on
+//! the boundary of one of them; if coplanar, either two edges cross or one triangle contains
+//! a vertex of the other; a degenerate triangle is the union of its edges. So the test is
+//! six exact segment–triangle tests:
+//!
+//! * segment `pq` against a non-degenerate triangle `abc` whose plane it does not lie in:
+//!   `pq` meets the plane (`orient3d(a,b,c,p)` and `orient3d(a,b,c,q)` not of the same strict
+//!   sign) and the line `pq` passes through the closed triangle (the three volumes
+//!   `orient3d(p,q,a,b)`, `orient3d(p,q,b,c)`, `orient3d(p,q,c,a)` not of strictly opposite
+//!   signs);
+//! * coplanar: project along an axis on which the triangle's shadow is not degenerate
+//!   (an exact `orient2d ≠ 0`); then an endpoint inside the triangle or a crossing with one
+//!   of its edges (exact 2-D segment test);
+//! * a degenerate triangle: the segment against each of its three edges. Two segments
+//!   meet iff they are coplanar (`orient3d = 0`) and their shadows meet on all three
+//!   coordinate planes (necessary always; sufficient because at least one projection is
+//!   one-to-one on their common plane or line).
+//!
+//! Triangles that share a vertex do intersect under this test; excluding mesh neighbours is
+//! the caller's business.
+
+use glam::{DVec2, DVec3};
+
+/// The point of segment `(a, b)` closest to `p`: returns `(s, squared distance)` with the
+/// point `a + s (b − a)`, `s ∈ [0, 1]`. A zero-length segment gives `s = 0`.
+#[inline]
+pub fn point_segment_closest(p: DVec3, a: DVec3, b: DVec3) -> (f64, f64) {
+    let ab = b - a;
+    let len2 = ab.length_squared();
+    let s = if len2 > 0.0 {
+        ((p - a).dot(ab) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    // `is_nan` guard: an infinite `len2` gives NaN above; keep the answer on the segment.
+    let s = if s.is_nan() { 0.0 } else { s };
+    (s, (a + s * ab - p).length_squared())
+}
+
+/// Closest point on triangle `(a, b, c)` to `p`: returns (barycentric `[u, v, w]` with
+/// `u + v + w = 1`, all `≥ 0`, the point being `u a + v b + w c`; squared distance). Robust
+/// for degenerate (zero-area) triangles: then the answer is the closest point of its edges.
+pub fn point_triangle_closest(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> ([f64; 3], f64) {
+    // Boundary candidates: the three edges (always well defined).
+    let (s_ab, d_ab) = point_segment_closest(p, a, b);
+    let (s_bc, d_bc) = point_segment_closest(p, b, c);
+    let (s_ca, d_ca) = point_segment_closest(p, c, a);
+    let mut best = ([1.0 - s_ab, s_ab, 0.0], d_ab);
+    if d_bc < best.1 {
+        best = ([0.0, 1.0 - s_bc, s_bc], d_bc);
+    }
+    if d_ca < best.1 {
+        best = ([s_ca, 0.0, 1.0 - s_ca], d_ca);
+    }
+    // Interior candidate: the orthogonal projection, when it falls inside.
+    let ab = b - a;
+    let ac = c - a;
+    let ap = p - a;
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    let (abab, acac, abac) = (ab.dot(ab), ac.dot(ac), ab.dot(ac));
+    let det = abab * acac - abac * abac;
+    if det > 0.0 && det.is_finite() {
+        let v = (d1 * acac - d2 * abac) / det;
+        let w = (d2 * abab - d1 * abac) / det;
+        if v >= 0.0 && w >= 0.0 && v + w <= 1.0 {
+            let u = 1.0 - v - w;
+            let q = u * a + v * b + w * c;
+            let d = (q - p).length_squared();
+            if d < best.1 {
+                best = ([u, v, w], d);
+            }
+        }
+    }
+    best
+}
+
+/// Closest points between segments `(a, b)` and `(c, d)`: returns `(s, t, squared distance)`
+/// with the points `a + s (b − a)` and `c + t (d − c)`, `s, t ∈ [0, 1]`. Robust for parallel
+/// and zero-length segments: the minimum is either the interior stationary point (used when
+/// the segments are not parallel) or involves an endpoint (the four endpoint–segment
+/// candidates), and the best candidate is returned.
+pub fn segment_segment_closest(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> (f64, f64, f64) {
+    let (t_a, d_a) = point_segment_closest(a, c, d);
+    let (t_b, d_b) = point_segment_closest(b, c, d);
+    let (s_c, d_c) = point_segment_closest(c, a, b);
+    let (s_d, d_d) = point_segment_closest(d, a, b);
+    let mut best = (0.0, t_a, d_a);
+    if d_b < best.2 {
+        best = (1.0, t_b, d_b);
+    }
+    if d_c < best.2 {
+        best = (s_c, 0.0, d_c);
+    }
+    if d_d < best.2 {
+        best = (s_d, 1.0, d_d);
+    }
+    // Interior candidate: both parameters strictly inside, from the 2×2 normal equations.
+    let u = b - a;
+    let v = d - c;
+    let r = a - c;
+    let (uu, vv, uv) = (u.dot(u), v.dot(v), u.dot(v));
+    let (ur, vr) = (u.dot(r), v.dot(r));
+    let det = uu * vv - uv * uv;
+    if det > 0.0 && det.is_finite() {
+        let s = (uv * vr - ur * vv) / det;
+        let t = (uu * vr - uv * ur) / det;
+        if (0.0..=1.0).contains(&s) && (0.0..=1.0).contains(&t) {
+            let dist = (a + s * u - (c + t * v)).length_squared();
+            if dist < best.2 {
+                best = (s, t, dist);
+            }
+        }
+    }
+    best
+}
+
+/// Exact triangle–triangle intersection test of the closed triangles `t1` and `t2`
+/// (touching counts; degenerate triangles allowed). See the module docs for the method.
+/// Triangles sharing vertices are the caller's business (they intersect here).
+pub fn triangles_intersect(t1: [DVec3; 3], t2: [DVec3; 3]) -> bool {
+    (0..3).any(|i| segment_triangle_intersect(t1[i], t1[(i + 1) % 3], t2))
+        || (0..3).any(|i| segment_triangle_intersect(t2[i], t2[(i + 1) % 3], t1))
+}
+
+/// Exact test: does the closed segment `pq` meet the closed triangle `tri` (possibly
+/// degenerate)?
+pub fn segment_triangle_intersect(p: DVec3, q: DVec3, tri: [DVec3; 3]) -> bool {
+    let [a, b, c] = tri;
+    let Some(axis) = shadow_axis(a, b, c) else {
+        // Degenerate triangle: the union of its edges.
+        return segments_intersect(p, q, a, b)
+            || segments_intersect(p, q, b, c)
+            || segments_intersect(p, q, c, a);
+    };
+    let op = exact::orient3d(a, b, c, p);
+    let oq = exact::orient3d(a, b, c, q);
+    if op == 0 && oq == 0 {
+        // Coplanar with a proper triangle: 2-D test in a one-to-one shadow.
+        let (p, q) = (project(p, axis), project(q, axis));
+        let (a, b, c) = (project(a, axis), project(b, axis), project(c, axis));
+        return point_in_triangle_2d(p, a, b, c)
+            || point_in_triangle_2d(q, a, b, c)
+            || segments_intersect_2d(p, q, a, b)
+            || segments_intersect_2d(p, q, b, c)
+            || segments_intersect_2d(p, q, c, a);
+    }
+    if op * oq > 0 {
+        return false;
+    }
+    // The segment meets the plane in one point; is that point in the triangle?
+    let s1 = exact::orient3d(p, q, a, b);
+    let s2 = exact::orient3d(p, q, b, c);
+    let s3 = exact::orient3d(p, q, c, a);
+    !((s1 > 0 || s2 > 0 || s3 > 0) && (s1 < 0 || s2 < 0 || s3 < 0))
+}
+
+/// Exact test: do the closed segments `ab` and `cd` in space meet (zero lengths allowed)?
+pub fn segments_intersect(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> bool {
+    exact::orient3d(a, b, c, d) == 0
+        && (0..3).all(|axis| {
+            segments_intersect_2d(
+                project(a, axis),
+                project(b, axis),
+                project(c, axis),
+                project(d, axis),
+            )
+        })
+}
+
+/// An axis along which the shadow of triangle `abc` on the other two coordinates is a proper
+/// triangle (exactly), or `None` if the triangle is degenerate (its vertices collinear).
+fn shadow_axis(a: DVec3, b: DVec3, c: DVec3) -> Option<usize> {
+    (0..3).find(|&axis| exact::orient2d(project(a, axis), project(b, axis), project(c, axis)) != 0)
+}
+
+/// Drop coordinate `axis`.
+#[inline]
+fn project(p: DVec3, axis: usize) -> DVec2 {
+    match axis {
+        0 => DVec2::new(p.y, p.z),
+        1 => DVec2::new(p.z, p.x),
+        _ => DVec2::new(p.x, p.y),
+    }
+}
+
+/// `p` in the closed, non-degenerate 2-D triangle `abc` (exact).
+fn point_in_triangle_2d(p: DVec2, a: DVec2, b: DVec2, c: DVec2) -> bool {
+    let s1 = exact::orient2d(a, b, p);
+    let s2 = exact::orient2d(b, c, p);
+    let s3 = exact::orient2d(c, a, p);
+    !((s1 > 0 || s2 > 0 || s3 > 0) && (s1 < 0 || s2 < 0 || s3 < 0))
+}
+
+/// Do the closed 2-D segments `pq` and `rs` meet (exact; zero lengths allowed)?
+fn segments_intersect_2d(p: DVec2, q: DVec2, r: DVec2, s: DVec2) -> bool {
+    let d1 = exact::orient2d(r, s, p);
+    let d2 = exact::orient2d(r, s, q);
+    let d3 = exact::orient2d(p, q, r);
+    let d4 = exact::orient2d(p, q, s);
+    if d1 * d2 < 0 && d3 * d4 < 0 {
+        return true;
+    }
+    (d1 == 0 && in_box(r, s, p))
+        || (d2 == 0 && in_box(r, s, q))
+        || (d3 == 0 && in_box(p, q, r))
+        || (d4 == 0 && in_box(p, q, s))
+}
+
+/// `x` in the bounding box of `a` and `b` (exact comparisons).
+fn in_box(a: DVec2, b: DVec2, x: DVec2) -> bool {
+    a.x.min(b.x) <= x.x && x.x <= a.x.max(b.x) && a.y.min(b.y) <= x.y && x.y <= a.y.max(b.y)
+}
+
+/// Exact signs of orientation determinants (Shewchuk 1997): a floating-point evaluation with
+/// a proven error bound, and, when that cannot decide, an exact evaluation as a
+/// floating-point *expansion* (a sum of non-overlapping doubles).
+pub mod exact {
+    use glam::{DVec2, DVec3};
+
+    /// Half an ulp of 1: the unit roundoff of `f64` (2⁻⁵³).
+    const EPS: f64 = f64::EPSILON * 0.5;
+    /// Shewchuk's `ccwerrboundA` and `o3derrboundA`.
+    const CCW_BOUND: f64 = (3.0 + 16.0 * EPS) * EPS;
+    const O3D_BOUND: f64 = (7.0 + 56.0 * EPS) * EPS;
+
+    /// `x + y = s + e` exactly, `s = fl(x + y)`.
+    #[inline]
+    fn two_sum(x: f64, y: f64) -> (f64, f64) {
+        let s = x + y;
+        let bv = s - x;
+        let av = s - bv;
+        (s, (x - av) + (y - bv))
+    }
+
+    /// `x − y = s + e` exactly.
+    #[inline]
+    fn two_diff(x: f64, y: f64) -> (f64, f64) {
+        let s = x - y;
+        let bv = x - s;
+        let av = s + bv;
+        (s, (x - av) + (bv - y))
+    }
+
+    /// `x · y = p + e` exactly (fused multiply-add gives the rounding error).
+    #[inline]
+    fn two_product(x: f64, y: f64) -> (f64, f64) {
+        let p = x * y;
+        (p, x.mul_add(y, -p))
+    }
+
+    /// `e + f` (Shewchuk's `fast_expansion_sum_zeroelim`, written with `two_sum` so it
+    /// does not need the two inputs to be strongly non-overlapping). Returns the length.
+    fn sum(e: &[f64], f: &[f64], h: &mut [f64]) -> usize {
+        // Linear merge by magnitude, then a running two_sum (Shewchuk's `linear` variant
+        // would also do; this is his Theorem 13 form, valid for non-overlapping inputs).
+        let (mut i, mut j, mut n) = (0, 0, 0);
+        let mut q;
+        let next = |i: &mut usize, j: &mut usize| -> f64 {
+            if *j >= f.len() || (*i < e.len() && e[*i].abs() <= f[*j].abs()) {
+                *i += 1;
+                e[*i - 1]
+            } else {
+                *j += 1;
+                f[*j - 1]
+            }
+        };
+        if e.is_empty() && f.is_empty() {
+            return 0;
+        }
+        q = next(&mut i, &mut j);
+        while i < e.len() || j < f.len() {
+            let x = next(&mut i, &mut j);
+            let (s, err) = two_sum(q, x);
+            if err != 0.0 {
+                h[n] = err;
+                n += 1;
+            }
+            q = s;
+        }
+        if q != 0.0 || n == 0 {
+            h[n] = q;
+            n += 1;
+        }
+        n
+    }
+
+    /// `e · b` (Shewchuk's `scale_expansion_zeroelim`). Returns the length.
+    fn scale(e: &[f64], b: f64, h: &mut [f64]) -> usize {
+        let mut n = 0;
+        let (mut q, lo) = two_product(e[0], b);
+        if lo != 0.0 {
+            h[n] = lo;
+            n += 1;
+        }
+        for &x in &e[1..] {
+            let (p1, p0) = two_product(x, b);
+            let (s, err) = two_sum(q, p0);
+            if err != 0.0 {
+                h[n] = err;
+                n += 1;
+            }
+            let (s2, err2) = two_sum(p1, s);
+            if err2 != 0.0 {
+                h[n] = err2;
+                n += 1;
+            }
+            q = s2;
+        }
+        if q != 0.0 || n == 0 {
+            h[n] = q;
+            n += 1;
+        }
+        n
+    }
+
+    /// `e · f` for short expansions: Σᵢ e · fᵢ. Returns the length.
+    fn product(e: &[f64], f: &[f64], h: &mut [f64]) -> usize {
+        let mut acc = [0.0; 64];
+        let mut tmp = [0.0; 64];
+        let mut term = [0.0; 32];
+        let mut n = 0;
+        for &x in f {
+            let m = scale(e, x, &mut term);
+            let k = sum(&acc[..n], &term[..m], &mut tmp);
+            acc[..k].copy_from_slice(&tmp[..k]);
+            n = k;
+        }
+        h[..n].copy_from_slice(&acc[..n]);
+        n
+    }
+
+    /// Sign of an expansion: that of its largest (last) nonzero component.
+    fn sign(e: &[f64]) -> i32 {
+        e.iter()
+            .rev()
+            .find(|&&x| x != 0.0)
+            .map_or(0, |&x| if x > 0.0 { 1 } else { -1 })
+    }
+
+    /// `x − y` as an expansion of length ≤ 2 written into `h`.
+    fn diff(x: f64, y: f64, h: &mut [f64; 2]) -> usize {
+        let (s, e) = two_diff(x, y);
+        match (e != 0.0, s != 0.0) {
+            (true, _) => {
+                *h = [e, s];
+                2
+            }
+            (false, true) => {
+                h[0] = s;
+                1
+            }
+            (false, false) => {
+                h[0] = 0.0;
+                1
+            }
+        }
+    }
+
+    /// Sign of `(b − a) × (c − a)` (2-D): +1 when `a, b, c` turn counter-clockwise, −1
+    /// clockwise, 0 when collinear — exact.
+    pub fn orient2d(a: DVec2, b: DVec2, c: DVec2) -> i32 {
+        let l = (b.x - a.x) * (c.y - a.y);
+        let r = (b.y - a.y) * (c.x - a.x);
+        let det = l - r;
+        let bound = CCW_BOUND * (l.abs() + r.abs());
+        if det > bound {
+            return 1;
+        }
+        if -det > bound {
+            return -1;
+        }
+        orient2d_exact(a, b, c)
+    }
+
+    fn orient2d_exact(a: DVec2, b: DVec2, c: DVec2) -> i32 {
+        let (mut bax, mut cay, mut bay, mut cax) = ([0.0; 2], [0.0; 2], [0.0; 2], [0.0; 2]);
+        let n_bax = diff(b.x, a.x, &mut bax);
+        let n_cay = diff(c.y, a.y, &mut cay);
+        let n_bay = diff(b.y, a.y, &mut bay);
+        let n_cax = diff(c.x, a.x, &mut cax);
+        let mut l = [0.0; 8];
+        let mut r = [0.0; 8];
+        let nl = product(&bax[..n_bax], &cay[..n_cay], &mut l);
+        let nr = product(&bay[..n_bay], &cax[..n_cax], &mut r);
+        for x in &mut r[..nr] {
+            *x = -*x;
+        }
+        let mut det = [0.0; 16];
+        let n = sum(&l[..nl], &r[..nr], &mut det);
+        sign(&det[..n])
+    }
+
+    /// Sign of `det[b − a; c − a; d − a]` (the triple product `(b − a)·((c − a) × (d − a))`):
+    /// 0 exactly when the four points are coplanar — exact.
+    pub fn orient3d(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> i32 {
+        let (u, v, w) = (b - a, c - a, d - a);
+        let m1 = v.y * w.z;
+        let m2 = v.z * w.y;
+        let m3 = v.z * w.x;
+        let m4 = v.x * w.z;
+        let m5 = v.x * w.y;
+        let m6 = v.y * w.x;
+        let det = u.x * (m1 - m2) + u.y * (m3 - m4) + u.z * (m5 - m6);
+        let permanent = (m1.abs() + m2.abs()) * u.x.abs()
+            + (m3.abs() + m4.abs()) * u.y.abs()
+            + (m5.abs() + m6.abs()) * u.z.abs();
+        // Shewchuk's bound is for differences taken exactly; ours are rounded, which his
+        // orient3d also does (its `adx = pa[0] - pd[0]` etc.), so the same bound holds.
+        let bound = O3D_BOUND * permanent;
+        if det.is_finite() && bound.is_finite() {
+            if det > bound {
+                return 1;
+            }
+            if -det > bound {
+                return -1;
+            }
+        }
+        orient3d_exact(a, b, c, d)
+    }
+
+    fn orient3d_exact(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> i32 {
+        let mut u = [[0.0; 2]; 3];
+        let mut v = [[0.0; 2]; 3];
+        let mut w = [[0.0; 2]; 3];
+        let mut nu = [0; 3];
+        let mut nv = [0; 3];
+        let mut nw = [0; 3];
+        for k in 0..3 {
+            nu[k] = diff(b[k], a[k], &mut u[k]);
+            nv[k] = diff(c[k], a[k], &mut v[k]);
+            nw[k] = diff(d[k], a[k], &mut w[k]);
+        }
+        // det = Σ over the cyclic (i, j, k): u_i (v_j w_k − v_k w_j).
+        let mut total = [0.0; 192];
+        let mut n_total = 0;
+        for (i, j, k) in [(0, 1, 2), (1, 2, 0), (2, 0, 1)] {
+            let mut p = [0.0; 8];
+            let mut q = [0.0; 8];
+            let np = product(&v[j][..nv[j]], &w[k][..nw[k]], &mut p);
+            let nq = product(&v[k][..nv[k]], &w[j][..nw[j]], &mut q);
+            for x in &mut q[..nq] {
+                *x = -*x;
+            }
+            let mut minor = [0.0; 16];
+            let nm = sum(&p[..np], &q[..nq], &mut minor);
+            let mut term = [0.0; 64];
+            let nt = product(&minor[..nm], &u[i][..nu[i]], &mut term);
+            let mut acc = [0.0; 192];
+            let na = sum(&total[..n_total], &term[..nt], &mut acc);
+            total[..na].copy_from_slice(&acc[..na]);
+            n_total = na;
+        }
+        sign(&total[..n_total])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A small deterministic generator (xorshift64*), so tests need no dependency.
+    struct Rng(u64);
+    impl Rng {
+        fn next(&mut self) -> f64 {
+            self.0 ^= self.0 >> 12;
+            self.0 ^= self.0 << 25;
+            self.0 ^= self.0 >> 27;
+            (self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11) as f64 / (1u64 << 53) as f64
+        }
+        fn range(&mut self, lo: f64, hi: f64) -> f64 {
+            lo + (hi - lo) * self.next()
+        }
+        fn vec(&mut self, r: f64) -> DVec3 {
+            DVec3::new(self.range(-r, r), self.range(-r, r), self.range(-r, r))
+        }
+        fn int(&mut self, n: i64) -> i64 {
+            (self.next() * (2 * n + 1) as f64) as i64 - n
+        }
+    }
+
+    const A: DVec3 = DVec3::new(0.0, 0.0, 0.0);
+    const B: DVec3 = DVec3::new(1.0, 0.0, 0.0);
+    const C: DVec3 = DVec3::new(0.0, 1.0, 0.0);
+
+    fn close(x: f64, y: f64) -> bool {
+        (x - y).abs() <= 1e-12 * (1.0 + x.abs().max(y.abs()))
+    }
+
+    #[test]
+    fn point_above_face_projects_inside() {
+        let (bary, d2) = point_triangle_closest(DVec3::new(0.25, 0.25, 2.0), A, B, C);
+        assert!(close(d2, 4.0), "{d2}");
+        assert!(close(bary[0], 0.5) && close(bary[1], 0.25) && close(bary[2], 0.25));
+    }
+
+    #[test]
+    fn point_beyond_each_vertex_and_edge_snaps_to_it() {
+        // Vertex regions.
+        let (bary, d2) = point_triangle_closest(DVec3::new(-1.0, -1.0, 0.0), A, B, C);
+        assert_eq!(bary, [1.0, 0.0, 0.0]);
+        assert!(close(d2, 2.0));
+        let (bary, _) = point_triangle_closest(DVec3::new(3.0, -0.5, 1.0), A, B, C);
+        assert_eq!(bary, [0.0, 1.0, 0.0]);
+        // Edge bc region: beyond the hypotenuse, at distance √2/2 in the plane.
+        let (bary, d2) = point_triangle_closest(DVec3::new(1.0, 1.0, 0.0), A, B, C);
+        assert!(close(bary[0], 0.0) && close(bary[1], 0.5) && close(bary[2], 0.5));
+        assert!(close(d2, 0.5));
+    }
+
+    #[test]
+    fn degenerate_triangles_give_the_distance_to_their_segment_or_point() {
+        // Collinear vertices: the triangle is the segment from (0,0,0) to (2,0,0).
+        let m = DVec3::new(1.0, 0.0, 0.0);
+        let e = DVec3::new(2.0, 0.0, 0.0);
+        let (bary, d2) = point_triangle_closest(DVec3::new(1.5, 3.0, 4.0), A, m, e);
+        assert!(close(d2, 25.0), "{d2}");
+        let q = bary[0] * A + bary[1] * m + bary[2] * e;
+        assert!((q - DVec3::new(1.5, 0.0, 0.0)).length() < 1e-12);
+        assert!(bary.iter().all(|b| b.is_finite() && *b >= 0.0));
+        // All three vertices coincide.
+        let (bary, d2) = point_triangle_closest(DVec3::new(0.0, 0.0, 1.0), B, B, B);
+        assert!(close(d2, 2.0));
+        assert!(close(bary.iter().sum::<f64>(), 1.0));
+    }
+
+    /// Brute-force minimum of |p − q|² over a fine barycentric grid of the triangle.
+    fn sampled_point_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> f64 {
+        let n = 120;
+        let mut best = f64::INFINITY;
+        for i in 0..=n {
+            for j in 0..=n - i {
+                let (v, w) = (i as f64 / n as f64, j as f64 / n as f64);
+                let q = (1.0 - v - w) * a + v * b + w * c;
+                best = best.min((q - p).length_squared());
+            }
+        }
+        best
+    }
+
+    #[test]
+    fn point_triangle_closest_is_never_beaten_by_sampling() {
+        let mut rng = Rng(7);
+        for _ in 0..200 {
+            let (a, b, c) = (rng.vec(1.0), rng.vec(1.0), rng.vec(1.0));
+            let p = rng.vec(1.5);
+            let (bary, d2) = point_triangle_closest(p, a, b, c);
+            let q = bary[0] * a + bary[1] * b + bary[2] * c;
+            assert!(close((q - p).length_squared(), d2));
+            assert!(close(bary.iter().sum::<f64>(), 1.0) && bary.iter().all(|&x| x >= 0.0));
+            let sampled = sampled_point_triangle(p, a, b, c);
+            assert!(d2 <= sampled + 1e-12, "closest {d2} > sampled {sampled}");
+            // And sampling comes close (grid spacing 1/120 of edges ≤ 2√3).
+            assert!(sampled.sqrt() - d2.sqrt() < 0.05);
+        }
+    }
+
+    #[test]
+    fn crossing_segments_meet_at_their_crossing() {
+        let (s, t, d2) = segment_segment_closest(
+            DVec3::new(-1.0, 0.0, 0.0),
+            DVec3::new(1.0, 0.0, 0.0),
+            DVec3::new(0.5, -1.0, 1.0),
+            DVec3::new(0.5, 3.0, 1.0),
+        );
+        assert!(
+            close(s, 0.75) && close(t, 0.25) && close(d2, 1.0),
+            "{s} {t} {d2}"
+        );
+    }
+
+    #[test]
+    fn parallel_and_zero_length_segments_have_the_right_distance() {
+        // Parallel, overlapping on [1, 2] at distance 2.
+        let (s, t, d2) = segment_segment_closest(
+            DVec3::ZERO,
+            DVec3::new(2.0, 0.0, 0.0),
+            DVec3::new(1.0, 2.0, 0.0),
+            DVec3::new(5.0, 2.0, 0.0),
+        );
+        assert!(close(d2, 4.0), "{d2}");
+        assert!((1.0..=2.0).contains(&(2.0 * s)) && close(2.0 * s, 1.0 + 4.0 * t));
+        // Parallel, disjoint along the line: endpoint to endpoint.
+        let (_, _, d2) = segment_segment_closest(
+            DVec3::ZERO,
+            DVec3::new(1.0, 0.0, 0.0),
+            DVec3::new(4.0, 0.0, 0.0),
+            DVec3::new(3.0, 0.0, 0.0),
+        );
+        assert!(close(d2, 4.0));
+        // A zero-length segment is a point.
+        let p = DVec3::new(0.5, 1.0, 1.0);
+        let (s, t, d2) = segment_segment_closest(A, B, p, p);
+        assert!(close(s, 0.5) && t == 0.0 && close(d2, 2.0));
+        // Two points.
+        let (_, _, d2) = segment_segment_closest(A, A, B, B);
+        assert!(close(d2, 1.0));
+    }
+
+    #[test]
+    fn segment_segment_closest_is_never_beaten_by_sampling() {
+        let mut rng = Rng(11);
+        for k in 0..300 {
+            let (a, b, c) = (rng.vec(1.0), rng.vec(1.0), rng.vec(1.0));
+            // Every third pair is exactly parallel, every fifth has a zero-length edge.
+            let d = match k % 15 {
+                0 | 3 | 6 | 9 | 12 => c + 0.7 * (b - a),
+                5 | 10 => c,
+                _ => rng.vec(1.0),
+            };
+            let (s, t, d2) = segment_segment_closest(a, b, c, d);
+            assert!((0.0..=1.0).contains(&s) && (0.0..=1.0).contains(&t));
+            let gap = a + s * (b - a) - (c + t * (d - c));
+            assert!(close(gap.length_squared(), d2));
+            let n = 200;
+            let mut sampled = f64::INFINITY;
+            for i in 0..=n {
+                let q = a + (i as f64 / n as f64) * (b - a);
+                sampled = sampled.min(point_segment_closest(q, c, d).1);
+            }
+            assert!(d2 <= sampled + 1e-12, "closest {d2} > sampled {sampled}");
+        }
+    }
+
+    /// Exact `det[b − a; c − a; d − a]` of integer points, in i128.
+    fn orient3d_i128(p: [[i64; 3]; 4]) -> i32 {
+        let [a, b, c, d] = p.map(|x| x.map(|v| v as i128));
+        let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+        let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+        let w = [d[0] - a[0], d[1] - a[1], d[2] - a[2]];
+        let det = u[0] * (v[1] * w[2] - v[2] * w[1])
+            + u[1] * (v[2] * w[0] - v[0] * w[2])
+            + u[2] * (v[0] * w[1] - v[1] * w[0]);
+        det.signum() as i32
+    }
+
+    #[test]
+    fn orient3d_is_exact_on_nearly_coplanar_points() {
+        // Integer points up to 2^36, three of them exactly on the plane through the first
+        // with normal n, and the fourth nudged by ±1 or 0 off it: far beyond f64's naive
+        // accuracy (the products reach 2^108), exact in i128.
+        let mut rng = Rng(3);
+        let mut naive_wrong = 0;
+        for k in 0..2000 {
+            let big = 1i64 << 36;
+            let a = [rng.int(big), rng.int(big), rng.int(big)];
+            // Points a + i·e1 + j·e2 on a lattice plane spanned by small-ish integer vectors.
+            let e1 = [rng.int(1 << 20), rng.int(1 << 20), rng.int(1 << 20)];
+            let e2 = [rng.int(1 << 20), rng.int(1 << 20), rng.int(1 << 20)];
+            let on = |i: i64, j: i64| [0, 1, 2].map(|m| a[m] + i * e1[m] + j * e2[m]);
+            let b = on(rng.int(64), rng.int(64));
+            let c = on(rng.int(64), rng.int(64));
+            let mut d = on(rng.int(64), rng.int(64));
+            d[k % 3] += (k as i64 % 3) - 1;
+            let pts = [a, b, c, d];
+            let want = orient3d_i128(pts);
+            let [pa, pb, pc, pd] = pts.map(|x| DVec3::new(x[0] as f64, x[1] as f64, x[2] as f64));
+            assert_eq!(exact::orient3d(pa, pb, pc, pd), want, "case {k}: {pts:?}");
+            let (u, v, w) = (pb - pa, pc - pa, pd - pa);
+            let naive = u.dot(v.cross(w));
+            if (naive > 0.0) as i32 - ((naive < 0.0) as i32) != want {
+                naive_wrong += 1;
+            }
+        }
+        // The cases are hard: the plain floating-point determinant gets many wrong.
+        assert!(
+            naive_wrong > 100,
+            "only {naive_wrong} naive failures: cases too easy"
+        );
+    }
+
+    #[test]
+    fn orient3d_is_exact_with_non_representable_differences() {
+        // Four points exactly on the plane z = x + y (each sum is exact), with coordinates
+        // of wildly different magnitudes, so differences like 2^40 − 2^-35 are not doubles.
+        let p = |x: f64, y: f64| DVec3::new(x, y, x + y);
+        let (a, b, c) = (p(1.0, 3.0), p(2f64.powi(40), -7.0), p(-5.0, 2f64.powi(-20)));
+        let d = p(2f64.powi(-35), 1.0);
+        assert_eq!(exact::orient3d(a, b, c, d), 0);
+        let above = DVec3::new(d.x, d.y, d.z.next_up());
+        let below = DVec3::new(d.x, d.y, d.z.next_down());
+        let s = exact::orient3d(a, b, c, above);
+        assert_ne!(s, 0);
+        assert_eq!(exact::orient3d(a, b, c, below), -s);
+        // Every permutation of an exactly coplanar quadruple is still exactly coplanar.
+        assert_eq!(exact::orient3d(d, c, b, a), 0);
+        assert_eq!(exact::orient3d(b, d, a, c), 0);
+    }
+
+    #[test]
+    fn orient2d_is_exact_on_collinear_points() {
+        let a = DVec2::new(0.1, 0.1);
+        let b = DVec2::new(0.3, 0.3);
+        // 0.1 and 0.3 are not exact in binary, but 0.1 + k·(0.3 − 0.1) stays on y = x.
+        for k in 0..100 {
+            let x = 0.1 + k as f64 * 0.37;
+            assert_eq!(exact::orient2d(a, b, DVec2::new(x, x)), 0);
+            assert_eq!(exact::orient2d(a, b, DVec2::new(x, x.next_up())), 1);
+            assert_eq!(exact::orient2d(a, b, DVec2::new(x, x.next_down())), -1);
+        }
+    }
+
+    fn tri(a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> [DVec3; 3] {
+        [a.into(), b.into(), c.into()]
+    }
+
+    #[test]
+    fn piercing_and_separated_triangles() {
+        let t1 = tri([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]);
+        let pierce = tri([0.2, 0.2, -1.0], [0.2, 0.2, 1.0], [0.3, 0.25, 1.0]);
+        assert!(triangles_intersect(t1, pierce));
+        assert!(triangles_intersect(pierce, t1));
+        let above = pierce.map(|p| p + DVec3::new(0.0, 0.0, 1.0 + 1e-15));
+        assert!(!triangles_intersect(t1, above));
+        // Touching exactly at a point: the lowest vertex at z = 0 on the face.
+        let touch = pierce.map(|p| p + DVec3::new(0.0, 0.0, 1.0));
+        assert!(triangles_intersect(t1, touch));
+        // The same, moved outside the face by one ulp in x beyond the hypotenuse.
+        let edge = tri([0.5, 0.5, 0.0], [0.5, 0.5, 1.0], [0.6, 0.6, 1.0]);
+        assert!(triangles_intersect(t1, edge));
+        let out = edge.map(|p| DVec3::new(p.x.next_up(), p.y, p.z));
+        assert!(!triangles_intersect(t1, out));
+    }
+
+    #[test]
+    fn coplanar_triangles_overlap_touch_or_miss() {
+        let t1 = tri([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]);
+        // Inside one another (no edge crossings).
+        let inner = tri([0.1, 0.1, 0.0], [0.2, 0.1, 0.0], [0.1, 0.2, 0.0]);
+        assert!(triangles_intersect(t1, inner) && triangles_intersect(inner, t1));
+        // Sharing only the vertex (1,0,0).
+        let corner = tri([1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [2.0, 1.0, 0.0]);
+        assert!(triangles_intersect(t1, corner));
+        let apart = tri([1.0 + 1e-15, 0.0, 0.0], [2.0, 0.0, 0.0], [2.0, 1.0, 0.0]);
+        assert!(!triangles_intersect(t1, apart));
+        // In a tilted plane with inexact coordinates: a reflection across the hypotenuse
+        // of a tilted triangle touches along that edge.
+        let m = |x: f64, y: f64| DVec3::new(x, y, 0.1 * x + 0.3 * y);
+        let s1 = [m(0.0, 0.0), m(1.0, 0.0), m(0.0, 1.0)];
+        let s2 = [m(1.0, 0.0), m(0.0, 1.0), m(1.0, 1.0)];
+        assert!(triangles_intersect(s1, s2));
+    }
+
+    #[test]
+    fn degenerate_triangles_intersect_as_segments_and_points() {
+        let t1 = tri([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]);
+        // A needle (collinear vertices) through the face.
+        let needle = tri([0.3, 0.3, -1.0], [0.3, 0.3, 0.0], [0.3, 0.3, 2.0]);
+        assert!(triangles_intersect(t1, needle) && triangles_intersect(needle, t1));
+        let beside = needle.map(|p| p + DVec3::new(0.5, 0.5, 0.0));
+        assert!(!triangles_intersect(t1, beside));
+        // A point triangle on the face, on an edge, and just off it.
+        let on = DVec3::new(0.25, 0.0, 0.0);
+        assert!(triangles_intersect(t1, [on; 3]));
+        assert!(!triangles_intersect(
+            t1,
+            [on - DVec3::new(0.0, 1e-300, 0.0); 3]
+        ));
+        let inside = DVec3::new(0.25, 0.25, 0.0);
+        assert!(triangles_intersect([inside; 3], t1));
+        // Two needles crossing, and two parallel ones.
+        let n1 = tri([-1.0, 0.0, 0.5], [0.0, 0.0, 0.5], [1.0, 0.0, 0.5]);
+        let n2 = tri([0.0, -1.0, 0.5], [0.0, 1.0, 0.5], [0.0, 0.0, 0.5]);
+        assert!(triangles_intersect(n1, n2));
+        let n3 = n1.map(|p| p + DVec3::new(0.0, 1e-9, 0.0));
+        assert!(!triangles_intersect(n1, n3));
+    }
+
+    #[test]
+    fn triangles_intersect_agrees_with_a_sampled_distance_on_clear_cases() {
+        // Random pairs. Two triangles meet iff an edge of one meets the other, so the
+        // minimum over points sampled along the edges of the distance to the other triangle
+        // is 0 up to the sampling resolution (< 0.009 here) exactly when they intersect.
+        let mut rng = Rng(5);
+        let mut hits = 0;
+        for _ in 0..300 {
+            let t1 = [rng.vec(1.0), rng.vec(1.0), rng.vec(1.0)];
+            let t2 = [rng.vec(1.0), rng.vec(1.0), rng.vec(1.0)];
+            // Minimum distance between the triangles: over edges of one against the other.
+            let mut dmin = f64::INFINITY;
+            for (s, o) in [(t1, t2), (t2, t1)] {
+                for i in 0..3 {
+                    let (p, q) = (s[i], s[(i + 1) % 3]);
+                    for k in 0..=200 {
+                        let x = p + (k as f64 / 200.0) * (q - p);
+                        dmin = dmin.min(point_triangle_closest(x, o[0], o[1], o[2]).1.sqrt());
+                    }
+                }
+            }
+            let meet = triangles_intersect(t1, t2);
+            hits += meet as u32;
+            if dmin > 1e-2 {
+                assert!(!meet, "separated by {dmin} yet intersecting");
+            }
+            if meet {
+                // Some edge point of one is within the sampling resolution of the other.
+                assert!(dmin < 2e-2, "intersecting but {dmin} apart");
+            }
+        }
+        assert!(
+            hits > 20,
+            "too few intersecting pairs ({hits}) for a meaningful test"
+        );
+    }
+}
