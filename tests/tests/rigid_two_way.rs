@@ -117,6 +117,10 @@ fn throw(ball_mass: f64) -> Outcome {
         deepest = deepest.min(net_deepest);
         // The planes of the icosphere's faces are at least 0.934 R from its centre (and
         // contacts keep particles 2 × 5 mm off them): a net particle closer is inside.
+        let closest = x[net_range.clone()]
+            .iter()
+            .map(|p| (*p - c).length())
+            .fold(f64::INFINITY, f64::min);
         assert!(
             closest > 0.934 * RADIUS,
             "frame {frame}: a net particle is {closest} m from the ball's centre"
