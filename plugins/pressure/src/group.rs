@@ -408,8 +408,12 @@ pub struct PressureGroup {
     alpha: Vec<f64>,
     /// Multiplier of each chamber accumulated in this substep (Pa·s²).
     lambda: Vec<f64>,
-    /// Substep length of the last substep (s), to turn `λ` into a pressure.
-    last_h: f64,
+    /// Gauge pressure each closed chamber applied over the last substep, `λ/h²` (Pa).
+    applied: Vec<f64>,
+    /// Gauge pressure each chamber pushes with in the force stage (Pa): the `pressure`
+    /// parameter on an open chamber; on a closed compliant one what it applied over the last
+    /// substep, its `λ`'s warm start; 0 on a hard one.
+    warm: Vec<f64>,
 }
 
 impl PressureGroup {
@@ -430,7 +434,8 @@ impl PressureGroup {
             target,
             alpha,
             lambda: vec![0.0; n],
-            last_h: 0.0,
+            applied: vec![0.0; n],
+            warm: vec![0.0; n],
         })
     }
 
@@ -451,72 +456,58 @@ impl PressureGroup {
 
     /// The gauge pressure chamber `c` applied in the last substep (Pa).
     fn applied(&self, c: usize) -> f64 {
-        if !self.chambers.is_closed(c) {
-            self.params.pressure
-        } else if self.last_h > 0.0 {
-            self.lambda[c] / (self.last_h * self.last_h)
+        if self.chambers.is_closed(c) {
+            self.applied[c]
         } else {
-            0.0
+            self.params.pressure
         }
-    }
-
-    fn has_open(&self) -> bool {
-        (0..self.chambers.len()).any(|c| !self.chambers.is_closed(c))
-    }
-
-    fn has_closed(&self) -> bool {
-        (0..self.chambers.len()).any(|c| self.chambers.is_closed(c))
     }
 }
 
 impl ConstraintGroup for PressureGroup {
     fn stages(&self) -> Stages {
-        let mut s = Stages::BEGIN_SUBSTEP | Stages::REPORT;
-        if self.has_open() && self.params.pressure != 0.0 {
-            s = s | Stages::FORCE;
-        }
-        if self.has_closed() {
-            s = s | Stages::PROJECT;
-        }
-        s
+        Stages::FORCE | Stages::BEGIN_SUBSTEP | Stages::PROJECT | Stages::REPORT
     }
 
     fn len(&self) -> usize {
         self.chambers.len()
     }
 
-    /// Open chambers: `vᵢ += h wᵢ p gᵢ`, the pressure force along the normals.
+    /// Freezes every chamber's normals at the start of the substep and pushes with a
+    /// pressure, `vᵢ += h wᵢ p gᵢ`: on an open chamber the `pressure` parameter; on a closed
+    /// compliant one the pressure it applied over the last substep (the warm start of its
+    /// `λ`); a hard one pushes only in `project`.
     fn force(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
         let h = ctx.h;
         check_h(h)?;
         let p = ctx.particles();
         self.chambers
             .check_particles(p.x.len().min(p.v.len()).min(p.inv_mass.len()))?;
-        let pressure = self.params.pressure;
         for c in 0..self.chambers.len() {
-            if self.chambers.is_closed(c) {
-                continue;
-            }
             self.chambers.freeze_normals(c, p.x, p.inv_mass);
-            // The velocity change is the displacement w g s with s = h p.
-            self.chambers.displace(c, p.v, p.inv_mass, h * pressure);
+            let pressure = if !self.chambers.is_closed(c) {
+                self.params.pressure
+            } else if self.alpha[c] > 0.0 {
+                self.applied[c]
+            } else {
+                0.0
+            };
+            self.warm[c] = pressure;
+            if pressure != 0.0 {
+                // A velocity change w g s with s = h p.
+                self.chambers.displace(c, p.v, p.inv_mass, h * pressure);
+            }
         }
         Ok(())
     }
 
-    /// Freezes the closed chambers' normals at the start of the substep and resets every
-    /// λ: it is the total multiplier of the substep.
+    /// Starts each closed chamber's `λ` at the impulse the force stage applied, `h² p`
+    /// (the prediction carries it): `λ` is the total multiplier of the substep.
     fn begin_substep(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
-        let p = ctx.particles();
-        self.chambers
-            .check_particles(p.x0.len().min(p.inv_mass.len()))?;
-        for c in 0..self.chambers.len() {
-            if self.chambers.is_closed(c) {
-                self.chambers.freeze_normals(c, p.x0, p.inv_mass);
-            }
+        let h2 = ctx.h * ctx.h;
+        for (lambda, warm) in self.lambda.iter_mut().zip(&self.warm) {
+            *lambda = h2 * warm;
         }
-        self.lambda.fill(0.0);
-        self.last_h = ctx.h;
         Ok(())
     }
 
@@ -545,6 +536,7 @@ impl ConstraintGroup for PressureGroup {
             );
             self.chambers.displace(c, p.x, p.inv_mass, dl);
             self.lambda[c] += dl;
+            self.applied[c] = self.lambda[c] / (h * h);
         }
         Ok(())
     }
@@ -615,8 +607,11 @@ pub struct GasGroup {
     amount: Vec<f64>,
     /// Multiplier of each chamber accumulated in this substep (Pa·s²).
     lambda: Vec<f64>,
-    /// Substep length of the last substep (s).
-    last_h: f64,
+    /// Gauge pressure each chamber applied over the last substep, `λ/h²` (Pa).
+    applied: Vec<f64>,
+    /// Gauge pressure each chamber pushes with in the force stage (Pa): what it applied over
+    /// the last substep, its `λ`'s warm start.
+    warm: Vec<f64>,
 }
 
 impl GasGroup {
@@ -626,15 +621,17 @@ impl GasGroup {
         params.validate()?;
         let chambers = Chambers::new(scene, OpenOrientation::PositiveVolume)?;
         let p0 = params.incompressibility + params.start_pressure;
-        let amount = (0..chambers.len())
+        let n = chambers.len();
+        let amount = (0..n)
             .map(|c| p0 * chambers.rest(c).volume.max(chambers.floor(c)))
             .collect();
         Ok(Self {
-            lambda: vec![0.0; chambers.len()],
             chambers,
             params: *params,
             amount,
-            last_h: 0.0,
+            lambda: vec![0.0; n],
+            applied: vec![0.0; n],
+            warm: vec![0.0; n],
         })
     }
 
@@ -660,32 +657,30 @@ impl GasGroup {
     }
 
     /// The absolute pressure chamber `c` applied in the last substep (Pa).
-    fn applied(&self, c: usize) -> f64 {
-        if self.last_h > 0.0 {
-            self.ambient() + self.lambda[c] / (self.last_h * self.last_h)
-        } else {
-            self.ambient()
-        }
+    fn applied_absolute(&self, c: usize) -> f64 {
+        self.ambient() + self.applied[c]
     }
 }
 
 impl ConstraintGroup for GasGroup {
     fn stages(&self) -> Stages {
-        Stages::BEGIN_SUBSTEP | Stages::PROJECT | Stages::REPORT
+        Stages::FORCE | Stages::BEGIN_SUBSTEP | Stages::PROJECT | Stages::REPORT
     }
 
     fn len(&self) -> usize {
         self.chambers.len()
     }
 
-    /// Freezes each chamber's normals at the start of the substep, pumps and leaks its gas
-    /// over the substep (with the volume and openings there), and resets every λ.
-    fn begin_substep(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
+    /// At the start of the substep: freezes every chamber's normals, pumps and leaks its gas
+    /// over the substep (with the volume and openings there), and pushes with the gauge
+    /// pressure it applied over the last substep, `vᵢ += h wᵢ p gᵢ` (the warm start of its
+    /// `λ`).
+    fn force(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
         let h = ctx.h;
         check_h(h)?;
         let p = ctx.particles();
         self.chambers
-            .check_particles(p.x0.len().min(p.inv_mass.len()))?;
+            .check_particles(p.x.len().min(p.v.len()).min(p.inv_mass.len()))?;
         let GasParams {
             pump_rate,
             air_tightness,
@@ -693,7 +688,7 @@ impl ConstraintGroup for GasGroup {
         } = self.params;
         let ambient = self.ambient();
         for c in 0..self.chambers.len() {
-            let m = self.chambers.freeze_normals(c, p.x0, p.inv_mass);
+            let m = self.chambers.freeze_normals(c, p.x, p.inv_mass);
             let v = m.volume.max(self.chambers.floor(c));
             self.amount[c] = solve::leak(
                 self.amount[c],
@@ -704,9 +699,22 @@ impl ConstraintGroup for GasGroup {
                 pump_rate,
                 h,
             );
+            let gauge = self.applied[c];
+            self.warm[c] = gauge;
+            if gauge != 0.0 {
+                self.chambers.displace(c, p.v, p.inv_mass, h * gauge);
+            }
         }
-        self.lambda.fill(0.0);
-        self.last_h = h;
+        Ok(())
+    }
+
+    /// Starts each chamber's `λ` at the impulse the force stage applied, `h² p`: `λ` is the
+    /// total multiplier of the substep.
+    fn begin_substep(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
+        let h2 = ctx.h * ctx.h;
+        for (lambda, warm) in self.lambda.iter_mut().zip(&self.warm) {
+            *lambda = h2 * warm;
+        }
         Ok(())
     }
 
@@ -725,6 +733,7 @@ impl ConstraintGroup for GasGroup {
             let dl = solve::gas_delta_lambda(v, self.amount[c], ambient, s, self.lambda[c], h);
             self.chambers.displace(c, p.x, p.inv_mass, dl);
             self.lambda[c] += dl;
+            self.applied[c] = self.lambda[c] / (h * h);
         }
         Ok(())
     }
@@ -745,7 +754,7 @@ impl ConstraintGroup for GasGroup {
             let n = self.amount[c];
             let pressure = n / v;
             let err = if pressure > 0.0 {
-                (self.applied(c) - pressure).abs() / pressure
+                (self.applied_absolute(c) - pressure).abs() / pressure
             } else {
                 0.0
             };
@@ -779,7 +788,7 @@ impl ConstraintGroup for GasGroup {
             measured
                 .iter()
                 .enumerate()
-                .map(|(c, (v, _))| (self.applied(c) - self.ambient(), *v)),
+                .map(|(c, (v, _))| (self.applied[c], *v)),
         );
         out.push(("volume".into(), volume));
         out.push(("amount".into(), amount));

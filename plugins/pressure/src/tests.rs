@@ -593,7 +593,7 @@ fn a_state_too_small_for_the_group_is_an_error_not_a_panic() {
         passes: 1,
     };
     for e in [
-        group.begin_substep(&mut ctx).into_result(),
+        group.force(&mut ctx).into_result(),
         group.project(&mut ctx).into_result(),
     ] {
         assert_eq!(e.expect_err("ran").code, PluginError::FAILED);
