@@ -612,6 +612,10 @@ pub struct GasGroup {
     /// Gauge pressure each chamber pushes with in the force stage (Pa): what it applied over
     /// the last substep, its `λ`'s warm start.
     warm: Vec<f64>,
+    /// Amount of gas in each chamber at the start of the substep, pump included (Pa·m³).
+    start_amount: Vec<f64>,
+    /// The leak of each chamber over the substep as a volume of ambient air, `h L` (m³).
+    leak_volume: Vec<f64>,
 }
 
 impl GasGroup {
@@ -622,16 +626,18 @@ impl GasGroup {
         let chambers = Chambers::new(scene, OpenOrientation::PositiveVolume)?;
         let p0 = params.incompressibility + params.start_pressure;
         let n = chambers.len();
-        let amount = (0..n)
+        let amount: Vec<f64> = (0..n)
             .map(|c| p0 * chambers.rest(c).volume.max(chambers.floor(c)))
             .collect();
         Ok(Self {
             chambers,
             params: *params,
+            start_amount: amount.clone(),
             amount,
             lambda: vec![0.0; n],
             applied: vec![0.0; n],
             warm: vec![0.0; n],
+            leak_volume: vec![0.0; n],
         })
     }
 
@@ -671,8 +677,8 @@ impl ConstraintGroup for GasGroup {
         self.chambers.len()
     }
 
-    /// At the start of the substep: freezes every chamber's normals, pumps and leaks its gas
-    /// over the substep (with the volume and openings there), and pushes with the gauge
+    /// At the start of the substep: freezes every chamber's normals, pumps its gas, sets the
+    /// leak of the substep from the openings and pressure there, and pushes with the gauge
     /// pressure it applied over the last substep, `vᵢ += h wᵢ p gᵢ` (the warm start of its
     /// `λ`).
     fn force(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
@@ -690,15 +696,11 @@ impl ConstraintGroup for GasGroup {
         for c in 0..self.chambers.len() {
             let m = self.chambers.freeze_normals(c, p.x, p.inv_mass);
             let v = m.volume.max(self.chambers.floor(c));
-            self.amount[c] = solve::leak(
-                self.amount[c],
-                v,
-                ambient,
-                m.open_area,
-                air_tightness,
-                pump_rate,
-                h,
-            );
+            let n = (self.amount[c] + pump_rate * h).max(0.0);
+            self.amount[c] = n;
+            self.start_amount[c] = n;
+            let upwind = (n / v).max(ambient);
+            self.leak_volume[c] = h * solve::leak_conductance(m.open_area, air_tightness, upwind);
             let gauge = self.applied[c];
             self.warm[c] = gauge;
             if gauge != 0.0 {
@@ -730,9 +732,16 @@ impl ConstraintGroup for GasGroup {
         for c in 0..self.chambers.len() {
             let (v, _) = self.volume(c, p.x);
             let s = self.chambers.frozen_weighted_norm(c);
-            let dl = solve::gas_delta_lambda(v, self.amount[c], ambient, s, self.lambda[c], h);
+            // Backward Euler on the leak: for the substep the chamber holds the gas n + p_atm hL
+            // in the volume V + hL (see `solve::leaked_amount`).
+            let hl = self.leak_volume[c];
+            let held = self.start_amount[c] + ambient * hl;
+            let dl = solve::gas_delta_lambda(v + hl, held, ambient, s, self.lambda[c], h);
             self.chambers.displace(c, p.x, p.inv_mass, dl);
             self.lambda[c] += dl;
+            // The gas left at the volume this step moves the chamber to (linearized).
+            let moved = (v + s * dl).max(self.chambers.floor(c));
+            self.amount[c] = solve::leaked_amount(self.start_amount[c], moved, ambient, hl);
             self.applied[c] = self.lambda[c] / (h * h);
         }
         Ok(())

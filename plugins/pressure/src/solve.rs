@@ -9,7 +9,7 @@ use nucleus_sdk::xpbd;
 
 /// The characteristic acoustic impedance of air, `ρc` (Pa·s/m): 1.204 kg/m³ × 343 m/s at
 /// 20 °C. A hole of area `A` under a pressure difference `Δp` lets out the volume flow
-/// `A Δp / (ρc)` (see [`leak`]).
+/// `A Δp / (ρc)` (see [`leak_conductance`]).
 pub const AIR_IMPEDANCE: f64 = 413.0;
 
 /// `Δλ` of one XPBD step of the volume constraint `C = V − V_target − α p` with compliance
@@ -63,37 +63,32 @@ pub fn gas_delta_lambda(
     (h2 * (pressure - ambient) - lambda) / denom
 }
 
-/// The amount of gas after a substep of length `h` (Pa·m³): the pump adds `pump_rate·h`,
-/// and the openings leak. Through openings of total area `A` the volume flow out is
-/// `Q = (1 − τ) A (p − p_atm) / (ρc)` ([`AIR_IMPEDANCE`]), carrying the gas at the upwind
-/// pressure (`p` out, `p_atm` in), so
+/// The leak conductance of a chamber's openings, `L` in `dn/dt = −L (p − p_atm)` (m³/s):
+/// through openings of total area `A` the volume flow out is `Q = (1 − τ) A (p − p_atm) / ρc` ([`AIR_IMPEDANCE`]), carrying the gas
+/// at the upwind pressure `p_up` (`p` flowing out, `p_atm` flowing in), so
+/// `L = (1 − τ) A p_up / ρc`.
+pub fn leak_conductance(open_area: f64, air_tightness: f64, upwind_pressure: f64) -> f64 {
+    ((1.0 - air_tightness) * open_area * upwind_pressure / AIR_IMPEDANCE).max(0.0)
+}
+
+/// The amount of gas left after a substep of length `h` through openings of conductance `L`
+/// (see [`leak_conductance`]), by backward Euler on `dn/dt = −L (n/V − p_atm)` at the
+/// substep's final volume `V`:
 ///
 /// ```text
-/// dn/dt = −k (n − p_atm V),   k = (1 − τ) A max(p, p_atm) / (ρc V)
+/// n_end = n − h L (n_end/V − p_atm)   ⇔   n_end = (n + p_atm hL) V / (V + hL)
 /// ```
 ///
-/// which is integrated exactly over the substep with `V` and `k` frozen:
-/// `n ← p_atm V + (n − p_atm V) e^{−k h}`: the gauge pressure decays toward 0 and never
-/// overshoots, however large the hole. Never negative (a pump drawing air out stops at
-/// vacuum).
-pub fn leak(
-    amount: f64,
-    volume: f64,
-    ambient: f64,
-    open_area: f64,
-    air_tightness: f64,
-    pump_rate: f64,
-    h: f64,
-) -> f64 {
-    let mut n = amount;
-    let leakiness = (1.0 - air_tightness) * open_area;
-    if leakiness > 0.0 && volume > 0.0 {
-        let upwind = (amount / volume).max(ambient);
-        let k = leakiness * upwind / (AIR_IMPEDANCE * volume);
-        let at_ambient = ambient * volume;
-        n = at_ambient + (n - at_ambient) * (-k * h).exp();
+/// The chamber behaves as if merged, for the substep, with the volume `hL` of ambient air
+/// (`leak_volume`, m³): the gauge pressure relaxes toward 0 and never overshoots it however
+/// large the hole or the substep, and the leak carries on at the rate the surface's tension
+/// sustains as the chamber shrinks. `amount` is the gas at the start of the substep (pump
+/// included); `volume` must be positive.
+pub fn leaked_amount(amount: f64, volume: f64, ambient: f64, leak_volume: f64) -> f64 {
+    if leak_volume <= 0.0 {
+        return amount;
     }
-    (n + pump_rate * h).max(0.0)
+    (amount + ambient * leak_volume) * volume / (volume + leak_volume)
 }
 
 /// The work the gas can do on its surroundings as it expands or contracts isothermally to
@@ -183,35 +178,33 @@ mod tests {
     }
 
     #[test]
-    fn airtight_chamber_keeps_its_gas_and_the_pump_adds_exactly() {
-        let n = leak(100.0, 1e-3, 1e5, 0.5, 1.0, 0.0, H);
-        assert_eq!(n, 100.0);
-        let n = leak(100.0, 1e-3, 1e5, 0.0, 0.0, 0.0, H);
-        assert_eq!(n, 100.0, "no opening, no leak");
-        let n = leak(100.0, 1e-3, 1e5, 0.0, 1.0, 30.0, 0.5);
-        assert_eq!(n, 115.0);
-        assert_eq!(leak(1.0, 1e-3, 1e5, 0.0, 1.0, -30.0, 0.5), 0.0, "vacuum");
+    fn an_airtight_or_closed_chamber_keeps_its_gas() {
+        assert_eq!(leak_conductance(0.5, 1.0, 1e5), 0.0, "airtight");
+        assert_eq!(leak_conductance(0.0, 0.0, 1e5), 0.0, "no opening");
+        assert_eq!(leaked_amount(100.0, 1e-3, 1e5, 0.0), 100.0);
     }
 
     #[test]
-    fn leak_decays_the_gauge_pressure_at_the_predicted_rate() {
+    fn leak_follows_the_rate_law_and_never_overshoots_ambient() {
         let (v, ambient, area, tight) = (2e-3, 1e5, 1e-4, 0.5);
-        let p = 1.02e5;
+        let p: f64 = 1.02e5;
         let n0 = p * v;
-        // Small steps of the exact update agree with the rate law dn/dt = −Q p.
-        let dt = 1e-6;
-        let n1 = leak(n0, v, ambient, area, tight, 0.0, dt);
-        let rate = (1.0 - tight) * area * (p - ambient) / AIR_IMPEDANCE * p;
+        let l = leak_conductance(area, tight, p.max(ambient));
+        assert!((l - 0.5 * 1e-4 * p / AIR_IMPEDANCE).abs() < 1e-15);
+        // Small steps: dn/dt = −L (p − p_atm).
+        let dt = 1e-7;
+        let n1 = leaked_amount(n0, v, ambient, l * dt);
+        let rate = l * (p - ambient);
         assert!(((n0 - n1) / dt - rate).abs() < 1e-4 * rate);
-        // A huge step never overshoots ambient.
-        let n = leak(n0, v, ambient, 1e3, 0.0, 0.0, 1.0);
-        assert!((n - ambient * v).abs() < 1e-12 * n0);
-        // Lower tightness leaks faster; below ambient air comes in.
-        let a = leak(n0, v, ambient, area, 0.9, 0.0, 0.01);
-        let b = leak(n0, v, ambient, area, 0.1, 0.0, 0.01);
-        assert!(b < a && a < n0);
+        // A huge step: the gauge pressure vanishes, no further.
+        let n = leaked_amount(n0, v, ambient, 1e6);
+        assert!((n / v - ambient).abs() < 1e-6 * ambient, "{}", n / v);
+        // Lower tightness leaks more; below ambient air comes in.
+        let step = |t: f64| leaked_amount(n0, v, ambient, leak_conductance(area, t, p) * 0.01);
+        assert!(step(0.1) < step(0.9) && step(0.9) < n0);
         let under = 0.9e5 * v;
-        assert!(leak(under, v, ambient, area, 0.5, 0.0, 0.01) > under);
+        let l_in = leak_conductance(area, 0.5, ambient);
+        assert!(leaked_amount(under, v, ambient, l_in * 0.01) > under);
     }
 
     #[test]
