@@ -26,6 +26,9 @@ struct Shape {
     edge_pairs: Vec<EdgePair>,
 }
 
+/// One triangle at an edge: its index, the edge as its winding runs, its third vertex.
+type Side = (u32, [u32; 2], u32);
+
 /// A 1 m square cloth of N × N vertices, two triangles per quad, and its hinges.
 fn cloth() -> Shape {
     let spacing = 1.0 / (N - 1) as f64;
@@ -41,7 +44,7 @@ fn cloth() -> Shape {
         }
     }
     // Hinges: the two triangles of every interior edge, the edge oriented by the first.
-    let mut by_edge: BTreeMap<[u32; 2], Vec<(u32, [u32; 2], u32)>> = BTreeMap::new();
+    let mut by_edge: BTreeMap<[u32; 2], Vec<Side>> = BTreeMap::new();
     for (t, tri) in triangles.iter().enumerate() {
         for s in 0..3 {
             let (i, j, k) = (tri[s], tri[(s + 1) % 3], tri[(s + 2) % 3]);
