@@ -292,3 +292,26 @@ params = {{ compliance = 1e-3, compression_compliance = 1e-3 }}
         }
     }
 }
+
+#[test]
+fn the_balloon_and_sail_scenes_run() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes");
+    let build = |name: &str| {
+        let scene = nucleus_core::Scene::load(&dir.join(name)).unwrap_or_else(|e| panic!("{e}"));
+        Simulation::build(&scene, &registry(&[plugin_dir()])).unwrap_or_else(|e| panic!("{e}"))
+    };
+    // The pump inflates the balloon.
+    let mut balloon = build("balloon.toml");
+    let v0 = volume(&balloon, "balloon");
+    runs_finite(&mut balloon, 20, "balloon.toml");
+    assert!(volume(&balloon, "balloon") > 1.2 * v0);
+    // The sail billows along +z, its normal.
+    let mut sail = build("sail.toml");
+    runs_finite(&mut sail, 20, "sail.toml");
+    let z_max = sail
+        .positions()
+        .iter()
+        .map(|p| p.z)
+        .fold(f64::MIN, f64::max);
+    assert!(z_max > 0.05, "{z_max}");
+}
