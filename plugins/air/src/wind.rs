@@ -109,7 +109,7 @@ fn lerp(a: [f64; 3], b: [f64; 3], s: f64) -> [f64; 3] {
 /// Coordinates are floored to the lattice in `i64` (`as` saturates, and maps NaN to 0, so no
 /// input can panic); each of the 16 corners of the cell is hashed once (SplitMix64, reusing
 /// the hashes of the leading coordinates: 2 + 4 + 8 + 16 mixes), its hash split into the
-/// three components' values, and the corners blended with [`fade`].
+/// three components' values, and the corners blended with the quintic fade.
 pub fn value_noise(seed: u64, p: [f64; 4]) -> [f64; 3] {
     let cell = p.map(f64::floor);
     let i = cell.map(|c| c as i64 as u64);
