@@ -3,9 +3,10 @@
 //! * SDK versions, both directions. A plugin built against a **newer, compatible** SDK (its
 //!   root module has grown a field after `create_group`) loads and runs. A plugin built
 //!   against an **older** SDK whose root module has since grown is refused by abi_stable's
-//!   layout check; one whose boundary types have another layout is refused the same way; one
-//!   reporting another SDK ABI version (the semantic handshake) is refused naming both
-//!   versions. Every refusal is one short line naming the file, and a scene asking for the
+//!   layout check; one whose boundary types have another layout is refused the same way, and so
+//!   is one built against the next semver-incompatible release of the `nucleus-sdk` crate even
+//!   with an unchanged boundary; one reporting another SDK ABI version (the semantic
+//!   handshake) is refused naming both versions. Every refusal is one short line naming the file, and a scene asking for the
 //!   refused plugin's kind names the refusal.
 //! * A kind that collides with an installed plugin: an error naming both files.
 //! * A factory that rejects its parameters: the message names the parameter, located in the
@@ -190,6 +191,24 @@ fn a_plugin_reporting_another_sdk_abi_version_is_refused_naming_both_versions() 
     let ours = format!("version {SDK_ABI_VERSION}");
     assert!(
         cause.contains(&theirs) && cause.contains(&ours) && cause.contains("rebuild"),
+        "{cause}"
+    );
+}
+
+#[test]
+fn a_plugin_built_against_the_next_minor_release_of_the_sdk_crate_is_refused() {
+    // The boundary is unchanged; only the `nucleus-sdk` crate's version moved to the next
+    // semver-incompatible one. abi_stable checks the declaring package's version of every type.
+    let dir = plugin_dir_with("next-sdk-crate", &[fixture("next_sdk_crate")]);
+    let reg = registry(&[dir]);
+    assert!(reg.plugins.is_empty());
+    assert_eq!(reg.refused.len(), 1, "{:?}", reg.refused);
+    let cause = &reg.refused[0].cause;
+    let ours = env!("CARGO_PKG_VERSION"); // the workspace's version, the SDK's too
+    assert!(
+        cause.starts_with("incompatible plugin ABI")
+            && cause.contains("package versions")
+            && cause.contains(&format!("expected {ours}, found ")),
         "{cause}"
     );
 }
