@@ -255,6 +255,16 @@ pub fn point_triangle_ccd(
     let Some(bounds) = Bounds::new(query.e0.iter().chain(&query.e1), d, options.tolerance) else {
         return CcdResult::UNKNOWN;
     };
+    // Already in contact at t = 0 (resting contact): no search needed.
+    let (_, d2) = crate::distance::point_triangle_closest(
+        DVec3::ZERO,
+        -query.e0[0],
+        -query.e0[1],
+        -query.e0[2],
+    );
+    if let Some(r) = bounds.contact_at_start(d2) {
+        return r;
+    }
     let root = PtCell {
         t: [0.0, 1.0],
         uv: [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]],
@@ -285,6 +295,13 @@ pub fn edge_edge_ccd(
     let Some(bounds) = Bounds::new(query.e0.iter().chain(&query.e1), d, options.tolerance) else {
         return CcdResult::UNKNOWN;
     };
+    // Already in contact at t = 0 (resting contact): no search needed. Edges translated by
+    // −c: (a − c, b − c) against (0, d − c).
+    let [ac, ad, bc, _] = query.e0;
+    let (_, _, d2) = crate::distance::segment_segment_closest(ac, bc, DVec3::ZERO, ac - ad);
+    if let Some(r) = bounds.contact_at_start(d2) {
+        return r;
+    }
     let root = EeCell {
         t: [0.0, 1.0],
         s: [0.0, 1.0],
@@ -361,6 +378,18 @@ impl Bounds {
         })
     }
 
+    /// The answer `t = 0` when the squared distance `d2` at `t = 0`, computed from the
+    /// difference vectors (rounding error a few `u·E`, below `|ε|` and the margin), is within
+    /// `d + 2|ε|`: a contact up to rounding, so no false positive beyond rounding.
+    fn contact_at_start(&self, d2: f64) -> Option<CcdResult> {
+        self.touches(d2).then_some(CcdResult {
+            toi: Some(0.0),
+            margin: self.margin,
+            boxes: 0,
+            certified: true,
+        })
+    }
+
     /// Is the cell a contact within the tolerance at its start time `t₀`? Either its image is
     /// at most `δ` wide (every point of the cell, `t₀` included, is then within
     /// `d + √3 (δ + 2ε)` of contact), or one of its corners at `t₀` is within `d + δ` of
@@ -378,11 +407,19 @@ impl Bounds {
             .any(|f| f.length_squared() <= reach * reach)
     }
 
+    /// Is a squared distance `d2` computed from the differences (rounding error a few
+    /// `u·E`, below `|ε|`) within `d + 2|ε|`: a contact up to rounding?
+    #[inline]
+    fn touches(&self, d2: f64) -> bool {
+        let reach = self.d + 2.0 * self.eps.length();
+        d2 <= reach * reach
+    }
+
     /// Is every point of the cell farther than the thickness from contact? First the box
     /// of the corner values, then separating directions from the convex hull of the corners.
     #[inline]
-    fn excludes(&self, ex: &Examined) -> bool {
-        self.box_excludes(ex.lo, ex.hi) || self.hull_excludes(&ex.corners[..ex.n])
+    fn excludes(&self, ex: &Examined, hint: &mut DVec3) -> bool {
+        self.box_excludes(ex.lo, ex.hi) || self.hull_excludes(&ex.corners[..ex.n], hint)
     }
 
     /// Is every point of a box with corner values in `[lo, hi]` (computed) farther than the
@@ -412,7 +449,11 @@ impl Bounds {
     /// closest to 0, whose direction separates best. GJK is only a heuristic here: every
     /// candidate is verified rigorously ([`Self::separates`]), so its rounding can cost
     /// work, never correctness.
-    fn hull_excludes(&self, f: &[DVec3]) -> bool {
+    fn hull_excludes(&self, f: &[DVec3], hint: &mut DVec3) -> bool {
+        // The direction that last separated a cell often separates its neighbours too.
+        if *hint != DVec3::ZERO && self.separates(*hint, f).0 {
+            return true;
+        }
         let mut x = f[0];
         for y in &f[1..] {
             if y.length_squared() < x.length_squared() {
@@ -430,6 +471,7 @@ impl Bounds {
             let dir = x / scale;
             let (separated, support) = self.separates(dir, f);
             if separated {
+                *hint = dir;
                 return true;
             }
             // No progress possible: x is (nearly) the closest point, and not far enough.
@@ -618,7 +660,7 @@ trait Cell: Copy {
 fn search<C: Cell>(root: C, query: &C::Query, bounds: &Bounds, max_boxes: u32) -> CcdResult {
     // The root alone decides most queries: spare them the queue.
     let first = root.examine(query);
-    if bounds.excludes(&first) {
+    if bounds.excludes(&first, &mut DVec3::ZERO) {
         return CcdResult {
             toi: None,
             margin: bounds.margin,
@@ -651,6 +693,7 @@ fn search_in<C: Cell, const N: usize>(
     let mut queue = Queue::<C, N>::new(root);
     queue.push(root);
     let mut best = f64::INFINITY;
+    let mut hint = DVec3::ZERO;
     // Give up, conservatively: no contact before the earliest start of the cells not yet
     // discarded (`cell` and the queue).
     let give_up = |cell: &C, queue: &Queue<C, N>, best: f64, mut result: CcdResult| {
@@ -672,7 +715,7 @@ fn search_in<C: Cell, const N: usize>(
         }
         result.boxes += 1;
         let ex = cell.examine(query);
-        if bounds.excludes(&ex) {
+        if bounds.excludes(&ex, &mut hint) {
             continue;
         }
         let split = if bounds.accepts(&ex) {
