@@ -16,6 +16,9 @@ pub struct Surface<'a> {
     pub vertices: &'a [u32],
     /// Consistently oriented triangles (local indices); outward for a closed surface.
     pub triangles: &'a [[u32; 3]],
+    /// The same triangles in global particle indices (`vertices[l]` for each corner `l`), so
+    /// the volume reads positions without a second indirection.
+    pub corners: &'a [[u32; 3]],
     /// Boundary loops as `[start, end)` ranges into `loop_vertices`; empty for a closed
     /// surface.
     pub loops: &'a [[u32; 2]],
@@ -77,8 +80,8 @@ impl<'a> Surface<'a> {
         match normals {
             Some(g) => {
                 g.fill(DVec3::ZERO);
-                for &[a, b, c] in self.triangles {
-                    let (xa, xb, xc) = (self.at(x, a), self.at(x, b), self.at(x, c));
+                for (&[a, b, c], &[pa, pb, pc]) in self.triangles.iter().zip(self.corners) {
+                    let (xa, xb, xc) = (x[pa as usize], x[pb as usize], x[pc as usize]);
                     volume += tet_volume(r, xa, xb, xc);
                     let n2 = (xb - xa).cross(xc - xa);
                     area2 += n2.length();
@@ -89,8 +92,8 @@ impl<'a> Surface<'a> {
                 }
             }
             None => {
-                for &[a, b, c] in self.triangles {
-                    let (xa, xb, xc) = (self.at(x, a), self.at(x, b), self.at(x, c));
+                for &[pa, pb, pc] in self.corners {
+                    let (xa, xb, xc) = (x[pa as usize], x[pb as usize], x[pc as usize]);
                     volume += tet_volume(r, xa, xb, xc);
                     area2 += (xb - xa).cross(xc - xa).length();
                 }
@@ -119,6 +122,31 @@ impl<'a> Surface<'a> {
             open_area,
             area: 0.5 * area2,
         }
+    }
+
+    /// The enclosed volume alone (m³), as [`measure`](Self::measure) computes it: the hot
+    /// loop of every projection (one triple product per triangle and per cap triangle).
+    pub fn volume(&self, x: &[DVec3]) -> f64 {
+        let Some(&first) = self.vertices.first() else {
+            return 0.0;
+        };
+        let r = x[first as usize];
+        let mut volume = 0.0;
+        for &[pa, pb, pc] in self.corners {
+            volume += tet_volume(r, x[pa as usize], x[pb as usize], x[pc as usize]);
+        }
+        for &[start, end] in self.loops {
+            let ring = &self.loop_vertices[start as usize..end as usize];
+            if ring.is_empty() {
+                continue;
+            }
+            let centroid = ring.iter().map(|&l| self.at(x, l)).sum::<DVec3>() / ring.len() as f64;
+            for (k, &i) in ring.iter().enumerate() {
+                let j = ring[(k + 1) % ring.len()];
+                volume += tet_volume(r, self.at(x, j), self.at(x, i), centroid);
+            }
+        }
+        volume
     }
 
     /// `Σᵢ wᵢ |gᵢ|²` over the local vertices (m⁴/kg), with `w` the global inverse masses:
@@ -175,15 +203,28 @@ pub(crate) mod tests {
         pub x: Vec<DVec3>,
         pub vertices: Vec<u32>,
         pub triangles: Vec<[u32; 3]>,
+        pub corners: Vec<[u32; 3]>,
         pub loops: Vec<[u32; 2]>,
         pub loop_vertices: Vec<u32>,
     }
 
     impl Mesh {
+        /// Sets `corners` from `triangles` and `vertices`.
+        pub fn index(mut self) -> Self {
+            let v = &self.vertices;
+            self.corners = self
+                .triangles
+                .iter()
+                .map(|t| t.map(|l| v[l as usize]))
+                .collect();
+            self
+        }
+
         pub fn surface(&self) -> Surface<'_> {
             Surface {
                 vertices: &self.vertices,
                 triangles: &self.triangles,
+                corners: &self.corners,
                 loops: &self.loops,
                 loop_vertices: &self.loop_vertices,
             }
@@ -217,9 +258,11 @@ pub(crate) mod tests {
                 x,
                 vertices: (0..8).collect(),
                 triangles,
+                corners: Vec::new(),
                 loops: Vec::new(),
                 loop_vertices: Vec::new(),
             }
+            .index()
         }
 
         /// The cuboid without its top face (z = c): an open box, one loop 4 → 5 → 7 → 6
@@ -229,7 +272,7 @@ pub(crate) mod tests {
             m.triangles.drain(2..4);
             m.loops = vec![[0, 4]];
             m.loop_vertices = vec![4, 6, 7, 5];
-            m
+            m.index()
         }
 
         /// A UV sphere of `rings × segments` with poles, outward.
@@ -267,9 +310,11 @@ pub(crate) mod tests {
                 vertices: (0..x.len() as u32).collect(),
                 x,
                 triangles,
+                corners: Vec::new(),
                 loops: Vec::new(),
                 loop_vertices: Vec::new(),
             }
+            .index()
         }
 
         pub fn measure(&self) -> Measure {
@@ -306,6 +351,15 @@ pub(crate) mod tests {
     }
 
     #[test]
+    fn volume_alone_is_the_measured_volume() {
+        let mut rng = Rng(5);
+        for mut m in [Mesh::open_box(1.0, 2.0, 0.5), Mesh::uv_sphere(0.4, 5, 9)] {
+            m.jiggle(&mut rng, 0.1);
+            assert_eq!(m.surface().volume(&m.x), m.measure().volume);
+        }
+    }
+
+    #[test]
     fn open_box_is_capped_over_its_boundary_loop() {
         // The top of the box is missing; the cap over the loop (a flat square) restores the
         // full volume, and the opening is the missing face.
@@ -333,6 +387,7 @@ pub(crate) mod tests {
         for t in &mut m.triangles {
             t.swap(1, 2);
         }
+        let m = m.index();
         assert!((m.measure().volume + v).abs() < 1e-15 && v > 0.0);
     }
 

@@ -172,6 +172,8 @@ pub struct Chambers {
     vertices: Vec<u32>,
     /// Oriented triangles, local to their chamber.
     triangles: Vec<[u32; 3]>,
+    /// The same triangles in global particle indices.
+    corners: Vec<[u32; 3]>,
     /// Boundary loops: ranges into `loop_vertices`.
     loops: Vec<[u32; 2]>,
     /// Local vertex indices of the loops.
@@ -226,9 +228,11 @@ impl Chambers {
                 let measure = |c: &topology::Chamber| {
                     let loops = loop_ranges(&c.loops);
                     let flat: Vec<u32> = c.loops.concat();
+                    let corners = global_corners(&c.vertices, &c.triangles);
                     Surface {
                         vertices: &c.vertices,
                         triangles: &c.triangles,
+                        corners: &corners,
                         loops: &loops,
                         loop_vertices: &flat,
                     }
@@ -257,6 +261,8 @@ impl Chambers {
         self.max_index = self.max_index.max(c.vertices.last().copied());
         self.vertices.extend(&c.vertices);
         self.triangles.extend(&c.triangles);
+        self.corners
+            .extend(global_corners(&c.vertices, &c.triangles));
         let base = self.loop_vertices.len() as u32;
         self.loops.extend(
             loop_ranges(&c.loops)
@@ -287,6 +293,7 @@ impl Chambers {
         Surface {
             vertices: &self.vertices[self.vertex_start[c]..self.vertex_start[c + 1]],
             triangles: &self.triangles[self.triangle_start[c]..self.triangle_start[c + 1]],
+            corners: &self.corners[self.triangle_start[c]..self.triangle_start[c + 1]],
             loops: &self.loops[self.loop_start[c]..self.loop_start[c + 1]],
             loop_vertices: &self.loop_vertices,
         }
@@ -349,6 +356,14 @@ impl Chambers {
             _ => Ok(()),
         }
     }
+}
+
+/// The triangles in global particle indices.
+fn global_corners(vertices: &[u32], triangles: &[[u32; 3]]) -> Vec<[u32; 3]> {
+    triangles
+        .iter()
+        .map(|t| t.map(|l| vertices[l as usize]))
+        .collect()
 }
 
 /// `[start, end)` of each loop in the concatenation of `loops`.
@@ -523,7 +538,7 @@ impl ConstraintGroup for PressureGroup {
             if !self.chambers.is_closed(c) {
                 continue;
             }
-            let volume = self.chambers.measure(c, p.x).volume;
+            let volume = self.chambers.surface(c).volume(p.x);
             let s = self.chambers.frozen_weighted_norm(c);
             let dl = solve::volume_delta_lambda(
                 volume,
@@ -730,7 +745,11 @@ impl ConstraintGroup for GasGroup {
             .check_particles(p.x.len().min(p.inv_mass.len()))?;
         let ambient = self.ambient();
         for c in 0..self.chambers.len() {
-            let (v, _) = self.volume(c, p.x);
+            let v = self
+                .chambers
+                .surface(c)
+                .volume(p.x)
+                .max(self.chambers.floor(c));
             let s = self.chambers.frozen_weighted_norm(c);
             // Backward Euler on the leak: for the substep the chamber holds the gas n + p_atm hL
             // in the volume V + hL (see `solve::leaked_amount`).
