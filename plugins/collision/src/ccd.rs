@@ -693,7 +693,8 @@ trait Cell: Copy {
 fn search<C: Cell>(root: C, query: &C::Query, bounds: &Bounds, max_boxes: u32) -> CcdResult {
     // The root alone decides most queries: spare them the queue.
     let first = root.examine(query);
-    if bounds.excludes(&first, &mut DVec3::ZERO) {
+    let mut hint = DVec3::ZERO;
+    if bounds.excludes(&first, &mut hint) {
         return CcdResult {
             toi: None,
             margin: bounds.margin,
@@ -1436,6 +1437,48 @@ mod tests {
         // Boxes 1 apart on x with thickness exactly 1 may touch: examined.
         let r = pt_static(v(2.0, 0.0, 0.0), v(2.0, 0.0, 0.0), TRI, 1.0);
         assert_eq!(r.toi, Some(0.0));
+    }
+
+    /// Near misses in a random orientation: a point crossing the triangle's plane just
+    /// outside an edge, an edge sweeping just past the end of another, and parallel edges
+    /// sliding past each other, all at a gap `g`. Beyond the margin (`g = 1e-4`) a
+    /// certified contact is impossible by contract; far inside it (`g = 1e-9`, the
+    /// adversarial gap of the reference set) the hull test still tells them apart.
+    #[test]
+    fn near_misses_are_not_reported() {
+        let mut rng = Rng(99);
+        for g in [1e-4, 1e-9] {
+            for case in 0..60 {
+                let axis = rng.vec(1.0).normalize();
+                let (e1, e2) = axis.any_orthonormal_pair();
+                let m = |p: DVec3| p.x * e1 + p.y * e2 + p.z * axis + v(0.3, -0.2, 0.7);
+                let tri = [
+                    m(v(0.0, 0.0, 0.0)),
+                    m(v(1.0, 0.0, 0.0)),
+                    m(v(0.0, 1.0, 0.0)),
+                ];
+                let (s, tc) = (rng.next(), rng.next());
+                let vel = v(rng.next() - 0.5, -0.5 * rng.next(), 1.0);
+                let cross = v(s, -g, 0.0);
+                let (p0, p1) = (m(cross - tc * vel), m(cross + (1.0 - tc) * vel));
+                let r = point_triangle_ccd(
+                    [p0, tri[0], tri[1], tri[2]],
+                    [p1, tri[0], tri[1], tri[2]],
+                    0.0,
+                    &CcdOptions::default(),
+                );
+                assert_eq!(r.toi, None, "point, gap {g}, case {case}: {r:?}");
+                let a = [tri[0], tri[1]];
+                let b = |z: f64| [m(v(1.0 + g, -0.5, z)), m(v(1.0 + g, 0.5, z))];
+                let (b0, b1) = (b(1.0 - tc), b(-tc));
+                let r = ee([a[0], a[1], b0[0], b0[1]], [a[0], a[1], b1[0], b1[1]], 0.0);
+                assert_eq!(r.toi, None, "skew edges, gap {g}, case {case}: {r:?}");
+                let c0 = [m(v(0.5, g, 0.0)), m(v(1.5, g, 0.0))];
+                let c1 = [m(v(-0.5, g, 0.0)), m(v(0.5, g, 0.0))];
+                let r = ee([a[0], a[1], c0[0], c0[1]], [a[0], a[1], c1[0], c1[1]], 0.0);
+                assert_eq!(r.toi, None, "parallel edges, gap {g}, case {case}: {r:?}");
+            }
+        }
     }
 
     /// xorshift64*: deterministic, dependency-free.
