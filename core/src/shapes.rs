@@ -241,8 +241,10 @@ pub fn load_obj(path: &Path, scale: f64, translate: [f64; 3]) -> Result<Geometry
     let opts = tobj::LoadOptions {
         triangulate: true,
         single_index: false,
-        ignore_points: false,
-        ignore_lines: false,
+        // Lines and points are read below: tobj would otherwise turn `l a b` into degenerate
+        // triangles that repeat a vertex.
+        ignore_points: true,
+        ignore_lines: true,
     };
     let (models, _) = tobj::load_obj(path, &opts).map_err(|e| e.to_string())?;
     let mut geo = Geometry::default();

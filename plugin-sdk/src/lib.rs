@@ -107,6 +107,12 @@ macro_rules! __root_module_loader_name {
 ///
 /// Defines `pub fn nucleus_plugin() -> &'static PluginDef` for in-process use (unit tests)
 /// and the root module the host loads from the `cdylib`. Use it once per plugin crate.
+///
+/// Every plugin exports the same symbol, so two plugins cannot be linked into one binary as
+/// rlibs. To test several plugins in-process together, give each plugin crate a feature
+/// `no-export = []` and depend on them with `features = ["no-export"]`: the root module is
+/// then left out of the rlib (the `cdylib` built by `cargo build` keeps it, since
+/// dev-dependency features are not unified into plain builds).
 #[macro_export]
 macro_rules! export_plugin {
     ($def:expr) => {
@@ -117,51 +123,60 @@ macro_rules! export_plugin {
         }
 
         #[doc(hidden)]
-        pub mod __nucleus_plugin_export {
-            use $crate::abi_stable::prefix_type::PrefixTypeTrait as _;
+        #[allow(unexpected_cfgs)]
+        pub mod __nucleus_plugin_export_gate {
+            #[cfg(not(feature = "no-export"))]
+            pub mod __nucleus_plugin_export {
+                use $crate::abi_stable::prefix_type::PrefixTypeTrait as _;
 
-            extern "C" fn describe() -> $crate::abi_stable::std_types::RResult<
-                $crate::PluginInfo,
-                $crate::PluginError,
-            > {
-                $crate::group::describe_entry(super::nucleus_plugin())
-            }
-
-            extern "C" fn create_group(
-                kind: $crate::abi_stable::std_types::RStr<'_>,
-                params_json: $crate::abi_stable::std_types::RStr<'_>,
-                scene: &$crate::SceneView<'_>,
-            ) -> $crate::abi_stable::std_types::RResult<$crate::GroupBox, $crate::PluginError>
-            {
-                $crate::group::create_entry(super::nucleus_plugin(), kind, params_json, scene)
-            }
-
-            fn root_module() -> $crate::PluginModRef {
-                $crate::PluginMod {
-                    sdk_abi_version: $crate::SDK_ABI_VERSION,
-                    describe,
-                    create_group,
+                extern "C" fn describe(
+                ) -> $crate::abi_stable::std_types::RResult<$crate::PluginInfo, $crate::PluginError>
+                {
+                    $crate::group::describe_entry(super::super::nucleus_plugin())
                 }
-                .leak_into_prefix()
-            }
 
-            extern "C" fn erased_root_module() -> $crate::abi_stable::library::RootModuleResult {
-                $crate::abi_stable::library::__call_root_module_loader(root_module)
-            }
-
-            /// The library header abi_stable reads when the host loads this file.
-            #[export_name = $crate::__root_module_loader_name!()]
-            pub static NUCLEUS_ROOT_MODULE_LOADER: $crate::abi_stable::library::LibHeader =
-                // SAFETY: `erased_root_module` returns the prefix reference of a
-                // `PluginModRef`, the module type given here, as `from_constructor` requires.
-                unsafe {
-                    $crate::abi_stable::library::LibHeader::from_constructor::<
-                        $crate::PluginModRef,
-                    >(
-                        erased_root_module,
-                        $crate::abi_stable::library::CheckTypeLayout::Yes,
+                extern "C" fn create_group(
+                    kind: $crate::abi_stable::std_types::RStr<'_>,
+                    params_json: $crate::abi_stable::std_types::RStr<'_>,
+                    scene: &$crate::SceneView<'_>,
+                ) -> $crate::abi_stable::std_types::RResult<$crate::GroupBox, $crate::PluginError>
+                {
+                    $crate::group::create_entry(
+                        super::super::nucleus_plugin(),
+                        kind,
+                        params_json,
+                        scene,
                     )
-                };
+                }
+
+                fn root_module() -> $crate::PluginModRef {
+                    $crate::PluginMod {
+                        sdk_abi_version: $crate::SDK_ABI_VERSION,
+                        describe,
+                        create_group,
+                    }
+                    .leak_into_prefix()
+                }
+
+                extern "C" fn erased_root_module() -> $crate::abi_stable::library::RootModuleResult
+                {
+                    $crate::abi_stable::library::__call_root_module_loader(root_module)
+                }
+
+                /// The library header abi_stable reads when the host loads this file.
+                #[export_name = $crate::__root_module_loader_name!()]
+                pub static NUCLEUS_ROOT_MODULE_LOADER: $crate::abi_stable::library::LibHeader =
+                    // SAFETY: `erased_root_module` returns the prefix reference of a
+                    // `PluginModRef`, the module type given here, as `from_constructor` requires.
+                    unsafe {
+                        $crate::abi_stable::library::LibHeader::from_constructor::<
+                            $crate::PluginModRef,
+                        >(
+                            erased_root_module,
+                            $crate::abi_stable::library::CheckTypeLayout::Yes,
+                        )
+                    };
+            }
         }
     };
 }
