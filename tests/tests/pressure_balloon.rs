@@ -2,8 +2,9 @@
 //!
 //! * **Volume** (issue 6, test 4): a closed icosphere (r = 10 cm, 162 vertices) on a soft
 //!   membrane, with the `pressure` kind's hard volume constraint at pressure scale
-//!   s ∈ {1, 1.5, 2}, settles at the volume the model predicts, `s · V_rest`, within 0.5 %
-//!   (measured by this test from the positions, not by the plugin), and comes to rest.
+//!   s ∈ {1, 1.5, 2}, settles at the volume the model predicts, `s · V_rest` — to 1e-9
+//!   (the issue asks for 0.5 %), measured by this test from the positions, not by the
+//!   plugin — and comes to rest.
 //! * **Momentum** (test 7): a free balloon, unequal vertex masses, a random velocity field,
 //!   inflated by the `gas` kind or the `pressure` kind, keeps its linear momentum to 1e-9
 //!   relative: every pressure step moves vertex `i` by `wᵢ gᵢ Δλ` with `Σ gᵢ = 0` on a closed
@@ -80,8 +81,11 @@ fn balloons_settle_at_pressure_scale_times_rest_volume() {
             history.push(volume(&sim, "balloon"));
         }
         let v = *history.last().expect("frames");
+        // The issue asks for 0.5 %; the volume is solved exactly along the line of each
+        // correction and the pressure group runs last in each column, so the hard volume
+        // holds to rounding.
         let error = (v / (s * rest) - 1.0).abs();
-        assert!(error < 0.005, "s = {s}: V/V_rest = {}", v / rest);
+        assert!(error < 1e-9, "s = {s}: V/V_rest = {}", v / rest);
         // Settled: the volume no longer moves and the membrane is at rest.
         let drift = (history[59] / v - 1.0).abs();
         assert!(drift < 1e-4, "s = {s}: still moving by {drift}");

@@ -4,7 +4,7 @@
 //!   caps of its own vertices, pinned and driven toward each other by an animated OBJ
 //!   sequence. Its volume (measured here from the positions) falls by over 20 %, and both the
 //!   gas pressure the plugin reports and the pressure the solver actually pushes the membrane
-//!   with follow `p₀V₀/V` within 2 %.
+//!   with follow `p₀V₀/V` to 1e-9 (the issue asks for 2 %).
 //! * **Pump** (test 6): pumping `Q` (Pa·m³/s) into a balloon whose membrane is slack (rest
 //!   lengths longer than its edges, compression nearly free) inflates it at the predicted rate
 //!   `dV/dt = Q/p_atm`: with no membrane tension the gas stays at ambient pressure, so
@@ -144,8 +144,10 @@ params = {{ start_pressure = {start}, incompressibility = {incompressibility} }}
                 incompressibility + s("gas.applied_pressure")
             );
         }
+        // The issue asks for 2 %: the gas is solved exactly along each correction's line and
+        // warm-started, so the pressure pushing the membrane is Boyle's to rounding.
         assert!(
-            reported < 0.02 && applied < 0.02,
+            reported < 1e-9 && applied < 1e-9,
             "frame {frame}: {reported}, {applied}"
         );
     }

@@ -39,6 +39,29 @@ pub struct Measure {
     pub area: f64,
 }
 
+/// A cubic polynomial `c₀ + c₁t + c₂t² + c₃t³`: the volume along a line of displacements.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Cubic {
+    /// Coefficients, constant first.
+    pub c: [f64; 4],
+}
+
+impl Cubic {
+    /// The value at `t`.
+    #[inline]
+    pub fn at(&self, t: f64) -> f64 {
+        let [c0, c1, c2, c3] = self.c;
+        c0 + t * (c1 + t * (c2 + t * c3))
+    }
+
+    /// The derivative at `t`.
+    #[inline]
+    pub fn slope(&self, t: f64) -> f64 {
+        let [_, c1, c2, c3] = self.c;
+        c1 + t * (2.0 * c2 + t * 3.0 * c3)
+    }
+}
+
 /// `(a − r)·((b − r) × (c − r)) / 6`: the signed volume of the tetrahedron `(r, a, b, c)`.
 #[inline]
 fn tet_volume(r: DVec3, a: DVec3, b: DVec3, c: DVec3) -> f64 {
@@ -149,23 +172,112 @@ impl<'a> Surface<'a> {
         volume
     }
 
-    /// `Σᵢ wᵢ |gᵢ|²` over the local vertices (m⁴/kg), with `w` the global inverse masses:
-    /// the generalized inverse mass of the volume constraint.
-    pub fn weighted_norm(&self, normals: &[DVec3], inv_mass: &[f64]) -> f64 {
-        self.vertices
-            .iter()
-            .zip(normals)
-            .map(|(&p, g)| inv_mass[p as usize] * g.length_squared())
-            .sum()
+    /// Once per substep, for displacements `Δxᵢ = t uᵢ` along fixed per-vertex directions `u`
+    /// (local, one per vertex): fills `moments` with `mᵢ = Σ_{t = (i, j, k)} uⱼ × uₖ` (each
+    /// triangle in its winding, cap triangles included, a cap centroid's share spread over
+    /// its loop) and returns `Σₜ ua·(ub × uc)`, so that [`volume_along`](Self::volume_along)
+    /// is linear in the positions per vertex. Allocation-free.
+    pub fn line_moments(&self, u: &[DVec3], moments: &mut [DVec3]) -> f64 {
+        moments.fill(DVec3::ZERO);
+        let mut cubic = 0.0;
+        for &[a, b, c] in self.triangles {
+            let (ua, ub, uc) = (u[a as usize], u[b as usize], u[c as usize]);
+            moments[a as usize] += ub.cross(uc);
+            moments[b as usize] += uc.cross(ua);
+            moments[c as usize] += ua.cross(ub);
+            cubic += ua.dot(ub.cross(uc));
+        }
+        for &[start, end] in self.loops {
+            let ring = &self.loop_vertices[start as usize..end as usize];
+            if ring.is_empty() {
+                continue;
+            }
+            let share = 1.0 / ring.len() as f64;
+            let uc = ring.iter().map(|&l| u[l as usize]).sum::<DVec3>() * share;
+            let mut centroid_moment = DVec3::ZERO;
+            for (k, &i) in ring.iter().enumerate() {
+                let j = ring[(k + 1) % ring.len()];
+                // The cap triangle (j, i, c).
+                let (uj, ui) = (u[j as usize], u[i as usize]);
+                moments[j as usize] += ui.cross(uc);
+                moments[i as usize] += uc.cross(uj);
+                centroid_moment += uj.cross(ui);
+                cubic += uj.dot(ui.cross(uc));
+            }
+            for &l in ring {
+                moments[l as usize] += centroid_moment * share;
+            }
+        }
+        cubic / 6.0
     }
 
-    /// Moves every vertex by `Δxᵢ = wᵢ gᵢ s` (m). Kinematic vertices (`w = 0`) stay.
-    pub fn displace(&self, x: &mut [DVec3], normals: &[DVec3], inv_mass: &[f64], s: f64) {
-        for (&p, g) in self.vertices.iter().zip(normals) {
+    /// The enclosed volume along the line `x + t u`, exactly: `V(t) = c₀ + c₁t + c₂t² + c₃t³`
+    /// (the volume is a cubic in the positions). `c₀ = V(x)`, `c₁ = Σ ∇ᵢV(x)·uᵢ` (the exact
+    /// slope), `c₂ = Σ (xᵢ − r)·mᵢ / 6` with the `moments` of
+    /// [`line_moments`](Self::line_moments), which also returned `c₃`. One pass: three cross
+    /// products per triangle and a dot product per vertex.
+    pub fn volume_along(&self, x: &[DVec3], u: &[DVec3], moments: &[DVec3], c3: f64) -> Cubic {
+        let Some(&first) = self.vertices.first() else {
+            return Cubic::default();
+        };
+        let r = x[first as usize];
+        let (mut c0, mut c1) = (0.0, 0.0);
+        let mut term = |a: DVec3, b: DVec3, c: DVec3, ua: DVec3, ub: DVec3, uc: DVec3| {
+            let bc = b.cross(c);
+            c0 += a.dot(bc);
+            c1 += ua.dot(bc) + ub.dot(c.cross(a)) + uc.dot(a.cross(b));
+        };
+        for (&[a, b, c], &[pa, pb, pc]) in self.triangles.iter().zip(self.corners) {
+            term(
+                x[pa as usize] - r,
+                x[pb as usize] - r,
+                x[pc as usize] - r,
+                u[a as usize],
+                u[b as usize],
+                u[c as usize],
+            );
+        }
+        for &[start, end] in self.loops {
+            let ring = &self.loop_vertices[start as usize..end as usize];
+            if ring.is_empty() {
+                continue;
+            }
+            let share = 1.0 / ring.len() as f64;
+            let centroid = ring.iter().map(|&l| self.at(x, l)).sum::<DVec3>() * share - r;
+            let uc = ring.iter().map(|&l| u[l as usize]).sum::<DVec3>() * share;
+            for (k, &i) in ring.iter().enumerate() {
+                let j = ring[(k + 1) % ring.len()];
+                let (xj, xi) = (self.at(x, j) - r, self.at(x, i) - r);
+                term(xj, xi, centroid, u[j as usize], u[i as usize], uc);
+            }
+        }
+        let c2: f64 = self
+            .vertices
+            .iter()
+            .zip(moments)
+            .map(|(&p, m)| (x[p as usize] - r).dot(*m))
+            .sum();
+        Cubic {
+            c: [c0 / 6.0, c1 / 6.0, c2 / 6.0, c3],
+        }
+    }
+
+    /// Turns the pressure normals into the directions the vertices move along, in place:
+    /// `uᵢ = wᵢ gᵢ` (m²/kg), with `w` the global inverse masses. A correction of multiplier
+    /// `Δλ` then moves vertex `i` by `uᵢ Δλ`, the XPBD displacement `wᵢ ∇ᵢC Δλ`.
+    pub fn weight(&self, normals: &mut [DVec3], inv_mass: &[f64]) {
+        for (g, &p) in normals.iter_mut().zip(self.vertices) {
+            *g *= inv_mass[p as usize];
+        }
+    }
+
+    /// Moves every vertex by `Δxᵢ = uᵢ t` (or, for velocities, `Δvᵢ`). Kinematic vertices
+    /// (`w = 0`) are never touched.
+    pub fn displace(&self, x: &mut [DVec3], directions: &[DVec3], inv_mass: &[f64], t: f64) {
+        for (&p, u) in self.vertices.iter().zip(directions) {
             let p = p as usize;
-            let w = inv_mass[p];
-            if w > 0.0 {
-                x[p] += *g * (w * s);
+            if inv_mass[p] > 0.0 {
+                x[p] += *u * t;
             }
         }
     }
@@ -360,6 +472,37 @@ pub(crate) mod tests {
     }
 
     #[test]
+    fn the_volume_along_a_line_is_an_exact_cubic() {
+        let mut rng = Rng(31);
+        for mut m in [Mesh::uv_sphere(0.4, 5, 9), Mesh::open_box(1.0, 2.0, 0.5)] {
+            m.jiggle(&mut rng, 0.1);
+            let u: Vec<DVec3> = m.x.iter().map(|_| rng.vec3(0.3)).collect();
+            let mut moments = vec![DVec3::ZERO; m.x.len()];
+            let c3 = m.surface().line_moments(&u, &mut moments);
+            let cubic = m.surface().volume_along(&m.x, &u, &moments, c3);
+            for t in [0.0, 0.3, -0.7, 1.9] {
+                let moved: Vec<DVec3> = m.x.iter().zip(&u).map(|(x, u)| *x + *u * t).collect();
+                let exact = m.surface().volume(&moved);
+                assert!(
+                    (cubic.at(t) - exact).abs() < 1e-13,
+                    "t {t}: {} vs {exact}",
+                    cubic.at(t)
+                );
+            }
+            // The slope at 0 is the gradient along u.
+            let g = m.normals();
+            let slope: f64 = g.iter().zip(&u).map(|(g, u)| g.dot(*u)).sum();
+            if m.loops.is_empty() {
+                assert!(
+                    (cubic.slope(0.0) - slope).abs() < 1e-13,
+                    "{} vs {slope}",
+                    cubic.slope(0.0)
+                );
+            }
+        }
+    }
+
+    #[test]
     fn open_box_is_capped_over_its_boundary_loop() {
         // The top of the box is missing; the cap over the loop (a flat square) restores the
         // full volume, and the opening is the missing face.
@@ -471,9 +614,11 @@ pub(crate) mod tests {
             let w: Vec<f64> = (0..m.x.len())
                 .map(|_| 10f64.powf(rng.range(-3.0, 3.0)))
                 .collect();
+            let mut u = g.clone();
+            m.surface().weight(&mut u, &w);
             let mut x = m.x.clone();
             let s = rng.range(-1e-3, 1e-3);
-            m.surface().displace(&mut x, &g, &w, s);
+            m.surface().displace(&mut x, &u, &w, s);
             // Up to the rounding of the positions themselves (ε|x| per coordinate).
             let (mut p, mut l, mut p_floor, mut l_floor) = (DVec3::ZERO, DVec3::ZERO, 0.0, 0.0);
             for ((x1, x0), w) in x.iter().zip(&m.x).zip(&w) {
@@ -521,19 +666,18 @@ pub(crate) mod tests {
     }
 
     #[test]
-    fn displacement_moves_only_dynamic_vertices() {
+    fn displacement_moves_only_dynamic_vertices_along_w_g() {
         let m = Mesh::cuboid(1.0, 1.0, 1.0);
         let g = m.normals();
         let mut w = vec![2.0; 8];
         w[3] = 0.0;
+        let mut u = g.clone();
+        m.surface().weight(&mut u, &w);
         let mut x = m.x.clone();
-        m.surface().displace(&mut x, &g, &w, 0.1);
+        m.surface().displace(&mut x, &u, &w, 0.1);
         assert_eq!(x[3], m.x[3]);
         for l in [0, 1, 2, 4, 5, 6, 7] {
             assert!((x[l] - m.x[l] - g[l] * 0.2).length() < 1e-15);
         }
-        let s = m.surface().weighted_norm(&g, &w);
-        let expected: f64 = (0..8).map(|l| w[l] * g[l].length_squared()).sum();
-        assert!((s - expected).abs() < 1e-15);
     }
 }

@@ -7,7 +7,7 @@ use nucleus_sdk::prelude::*;
 use nucleus_sdk::serde_json;
 use serde::{Deserialize, Serialize};
 
-use crate::geometry::{Measure, Surface};
+use crate::geometry::{Cubic, Measure, Surface};
 use crate::solve;
 use crate::topology;
 
@@ -182,10 +182,13 @@ pub struct Chambers {
     rest: Vec<Measure>,
     /// The smallest volume each chamber is taken to have (m³).
     floor: Vec<f64>,
-    /// The pressure normals `gᵢ` of every vertex, frozen at the start of the substep.
-    normals: Vec<DVec3>,
-    /// `S = Σ wᵢ|gᵢ|²` of each chamber with its frozen normals (m⁴/kg).
-    weighted_norm: Vec<f64>,
+    /// The direction every vertex moves along in this substep, `uᵢ = wᵢ gᵢ` with `gᵢ` its
+    /// pressure normal at the start of the substep (m²/kg).
+    directions: Vec<DVec3>,
+    /// The per-vertex moments of the directions ([`Surface::line_moments`]).
+    moments: Vec<DVec3>,
+    /// The cubic coefficient of each chamber's volume along its directions (m³).
+    cubic: Vec<f64>,
     /// Particle slices must hold more than this index.
     max_index: Option<u32>,
 }
@@ -251,8 +254,9 @@ impl Chambers {
                 out.push(object.name.as_str(), chamber, rest);
             }
         }
-        out.normals = vec![DVec3::ZERO; out.vertices.len()];
-        out.weighted_norm = vec![0.0; out.len()];
+        out.directions = vec![DVec3::ZERO; out.vertices.len()];
+        out.moments = vec![DVec3::ZERO; out.vertices.len()];
+        out.cubic = vec![0.0; out.len()];
         Ok(out)
     }
 
@@ -324,27 +328,39 @@ impl Chambers {
         self.surface(c).measure(x, None)
     }
 
-    /// Computes and keeps chamber `c`'s pressure normals at `x` (the start of the substep)
-    /// and `S = Σ wᵢ|gᵢ|²`; returns the measure at `x`.
-    fn freeze_normals(&mut self, c: usize, x: &[DVec3], w: &[f64]) -> Measure {
+    /// At the start of a substep: computes chamber `c`'s pressure normals `gᵢ` at `x`, keeps
+    /// the directions `uᵢ = wᵢ gᵢ` its vertices will move along and their moments, and
+    /// returns the measure at `x`.
+    fn freeze(&mut self, c: usize, x: &[DVec3], w: &[f64]) -> Measure {
         let range = self.vertex_start[c]..self.vertex_start[c + 1];
-        let mut normals = std::mem::take(&mut self.normals);
+        let mut directions = std::mem::take(&mut self.directions);
+        let mut moments = std::mem::take(&mut self.moments);
         let surface = self.surface(c);
-        let m = surface.measure(x, Some(&mut normals[range.clone()]));
-        self.weighted_norm[c] = surface.weighted_norm(&normals[range], w);
-        self.normals = normals;
+        let u = &mut directions[range.clone()];
+        let m = surface.measure(x, Some(u));
+        surface.weight(u, w);
+        self.cubic[c] = surface.line_moments(u, &mut moments[range]);
+        self.directions = directions;
+        self.moments = moments;
         m
     }
 
-    /// `S = Σ wᵢ|gᵢ|²` of chamber `c` with its frozen normals.
-    fn frozen_weighted_norm(&self, c: usize) -> f64 {
-        self.weighted_norm[c]
+    /// Chamber `c`'s volume along its directions from `x`: `V(x + t u)` as a cubic in `t`.
+    fn along(&self, c: usize, x: &[DVec3]) -> Cubic {
+        let range = self.vertex_start[c]..self.vertex_start[c + 1];
+        self.surface(c).volume_along(
+            x,
+            &self.directions[range.clone()],
+            &self.moments[range],
+            self.cubic[c],
+        )
     }
 
-    /// Moves chamber `c`'s vertices by `wᵢ gᵢ s` with its frozen normals.
-    fn displace(&self, c: usize, x: &mut [DVec3], w: &[f64], s: f64) {
+    /// Moves chamber `c`'s dynamic vertices by `uᵢ t` (positions; or velocities, with `t` a
+    /// pressure times `h`).
+    fn displace(&self, c: usize, x: &mut [DVec3], w: &[f64], t: f64) {
         let range = self.vertex_start[c]..self.vertex_start[c + 1];
-        self.surface(c).displace(x, &self.normals[range], w, s);
+        self.surface(c).displace(x, &self.directions[range], w, t);
     }
 
     /// Refuses particle slices too short for the chambers' indices.
@@ -499,7 +515,7 @@ impl ConstraintGroup for PressureGroup {
         self.chambers
             .check_particles(p.x.len().min(p.v.len()).min(p.inv_mass.len()))?;
         for c in 0..self.chambers.len() {
-            self.chambers.freeze_normals(c, p.x, p.inv_mass);
+            self.chambers.freeze(c, p.x, p.inv_mass);
             let pressure = if !self.chambers.is_closed(c) {
                 self.params.pressure
             } else if self.alpha[c] > 0.0 {
@@ -538,17 +554,9 @@ impl ConstraintGroup for PressureGroup {
             if !self.chambers.is_closed(c) {
                 continue;
             }
-            let volume = self.chambers.surface(c).volume(p.x);
-            let s = self.chambers.frozen_weighted_norm(c);
-            let dl = solve::volume_delta_lambda(
-                volume,
-                self.target[c],
-                self.alpha[c],
-                self.params.pressure,
-                s,
-                self.lambda[c],
-                h,
-            );
+            let line = self.chambers.along(c, p.x);
+            let dl =
+                solve::volume_step_along(&line, self.goal(c), self.alpha[c], self.lambda[c], h);
             self.chambers.displace(c, p.x, p.inv_mass, dl);
             self.lambda[c] += dl;
             self.applied[c] = self.lambda[c] / (h * h);
@@ -709,7 +717,7 @@ impl ConstraintGroup for GasGroup {
         } = self.params;
         let ambient = self.ambient();
         for c in 0..self.chambers.len() {
-            let m = self.chambers.freeze_normals(c, p.x, p.inv_mass);
+            let m = self.chambers.freeze(c, p.x, p.inv_mass);
             let v = m.volume.max(self.chambers.floor(c));
             let n = (self.amount[c] + pump_rate * h).max(0.0);
             self.amount[c] = n;
@@ -745,21 +753,17 @@ impl ConstraintGroup for GasGroup {
             .check_particles(p.x.len().min(p.inv_mass.len()))?;
         let ambient = self.ambient();
         for c in 0..self.chambers.len() {
-            let v = self
-                .chambers
-                .surface(c)
-                .volume(p.x)
-                .max(self.chambers.floor(c));
-            let s = self.chambers.frozen_weighted_norm(c);
+            let line = self.chambers.along(c, p.x);
+            let floor = self.chambers.floor(c);
             // Backward Euler on the leak: for the substep the chamber holds the gas n + p_atm hL
             // in the volume V + hL (see `solve::leaked_amount`).
             let hl = self.leak_volume[c];
             let held = self.start_amount[c] + ambient * hl;
-            let dl = solve::gas_delta_lambda(v + hl, held, ambient, s, self.lambda[c], h);
+            let dl = solve::gas_step_along(&line, floor, held, hl, ambient, self.lambda[c], h);
             self.chambers.displace(c, p.x, p.inv_mass, dl);
             self.lambda[c] += dl;
-            // The gas left at the volume this step moves the chamber to (linearized).
-            let moved = (v + s * dl).max(self.chambers.floor(c));
+            // The gas left at the volume this step moves the chamber to.
+            let moved = line.at(dl).max(floor);
             self.amount[c] = solve::leaked_amount(self.start_amount[c], moved, ambient, hl);
             self.applied[c] = self.lambda[c] / (h * h);
         }

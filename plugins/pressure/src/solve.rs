@@ -7,6 +7,8 @@
 
 use nucleus_sdk::xpbd;
 
+use crate::geometry::Cubic;
+
 /// The characteristic acoustic impedance of air, `ρc` (Pa·s/m): 1.204 kg/m³ × 343 m/s at
 /// 20 °C. A hole of area `A` under a pressure difference `Δp` lets out the volume flow
 /// `A Δp / (ρc)` (see [`leak_conductance`]).
@@ -61,6 +63,102 @@ pub fn gas_delta_lambda(
         return 0.0;
     }
     (h2 * (pressure - ambient) - lambda) / denom
+}
+
+/// Newton's method on a scalar `f(t) = 0` from `t0`, at most [`LINE_ITERATIONS`] steps,
+/// stopping when a step is below `1e-13 |t|`. `None` if a slope is not positive and finite or
+/// the result does not reduce `|f|` below `|f(0)|`: the caller then keeps its linear step.
+fn newton(f: impl Fn(f64) -> (f64, f64), t0: f64) -> Option<f64> {
+    let (f_zero, _) = f(0.0);
+    let mut t = t0;
+    for _ in 0..LINE_ITERATIONS {
+        let (value, slope) = f(t);
+        if !(slope > 0.0 && slope.is_finite() && value.is_finite()) {
+            return None;
+        }
+        let step = value / slope;
+        t -= step;
+        if step.abs() <= 1e-13 * t.abs() {
+            break;
+        }
+    }
+    let (value, _) = f(t);
+    (t.is_finite() && value.abs() <= f_zero.abs()).then_some(t)
+}
+
+/// Newton steps taken along the line of a pass (each costs a few flops on the cubic, not a
+/// pass over the mesh).
+pub const LINE_ITERATIONS: usize = 8;
+
+/// `Δλ` of one XPBD step of the volume constraint `C = V − V_goal` (`V_goal = V_target + α p`),
+/// solved *exactly* along the line the step moves the vertices on, `x + Δλ u` with
+/// `uᵢ = wᵢ gᵢ`: `V(Δλ)` is the cubic `volume`, and `Δλ` is the root of
+/// `C(Δλ) + α̃ (λ + Δλ) = 0` (`α̃ = α/h²`) nearest the linear step, found by Newton's method on
+/// the cubic. A hard constraint (`α = 0`) is then met exactly by one pass, whatever the size of
+/// the correction. Falls back to the linear step [`volume_delta_lambda`] where the line search
+/// fails; 0 when the volume cannot move along the line.
+pub fn volume_step_along(volume: &Cubic, goal: f64, alpha: f64, lambda: f64, h: f64) -> f64 {
+    let s = volume.slope(0.0);
+    let linear = xpbd::delta_lambda(volume.at(0.0) - goal, s, alpha, lambda, h);
+    if linear == 0.0 {
+        return 0.0;
+    }
+    let alpha_tilde = alpha / (h * h);
+    let f = |t: f64| {
+        (
+            volume.at(t) - goal + alpha_tilde * (lambda + t),
+            volume.slope(t) + alpha_tilde,
+        )
+    };
+    newton(f, linear).unwrap_or(linear)
+}
+
+/// `Δλ` of one step of the ideal gas solved exactly along the line `x + Δλ u`: the root of
+///
+/// ```text
+/// (λ + Δλ)/h² = N / (max(V(Δλ), V_min) + hL) − p_atm
+/// ```
+///
+/// (`N = n + p_atm hL` the gas the chamber holds with its leak folded in, see
+/// [`leaked_amount`]) nearest the linear step [`gas_delta_lambda`], by Newton's method on the
+/// cubic `volume`. The left side grows with `Δλ` and the right side falls (`V` grows along
+/// `u`), so the root is unique. Falls back to the linear step where the line search fails.
+pub fn gas_step_along(
+    volume: &Cubic,
+    floor: f64,
+    held: f64,
+    leak_volume: f64,
+    ambient: f64,
+    lambda: f64,
+    h: f64,
+) -> f64 {
+    let v0 = volume.at(0.0).max(floor);
+    let linear = gas_delta_lambda(
+        v0 + leak_volume,
+        held,
+        ambient,
+        volume.slope(0.0),
+        lambda,
+        h,
+    );
+    if linear == 0.0 {
+        return 0.0;
+    }
+    let inv_h2 = 1.0 / (h * h);
+    let f = |t: f64| {
+        let raw = volume.at(t);
+        let (v, dv) = if raw > floor {
+            (raw, volume.slope(t))
+        } else {
+            (floor, 0.0)
+        };
+        let total = v + leak_volume;
+        (
+            (lambda + t) * inv_h2 - held / total + ambient,
+            inv_h2 + held * dv / (total * total),
+        )
+    };
+    newton(f, linear).unwrap_or(linear)
 }
 
 /// The leak conductance of a chamber's openings, `L` in `dn/dt = −L (p − p_atm)` (m³/s):
@@ -155,6 +253,56 @@ mod tests {
         assert!(errors[0] < 0.05 && errors[4] < 1e-14, "{errors:?}");
         // The piston moved out, and the gas is still above ambient (implicit, no overshoot).
         assert!(v > v0 && n / v > ambient);
+    }
+
+    /// The volume of a sphere of radius `r0 + t` for a unit outward speed: exact cubic.
+    fn sphere_line(r0: f64) -> Cubic {
+        let k = 4.0 / 3.0 * std::f64::consts::PI;
+        Cubic {
+            c: [k * r0.powi(3), 3.0 * k * r0 * r0, 3.0 * k * r0, k],
+        }
+    }
+
+    #[test]
+    fn a_hard_volume_is_met_exactly_along_its_line_in_one_step() {
+        // Doubling a sphere's volume: the linear step misses by the cubic's curvature, the
+        // step along the line does not.
+        let line = sphere_line(1.0);
+        let goal = 2.0 * line.at(0.0);
+        let t = volume_step_along(&line, goal, 0.0, 0.0, H);
+        assert!(
+            (line.at(t) / goal - 1.0).abs() < 1e-14,
+            "{}",
+            line.at(t) / goal
+        );
+        let linear = volume_delta_lambda(line.at(0.0), goal, 0.0, 0.0, line.slope(0.0), 0.0, H);
+        assert!((line.at(linear) / goal - 1.0).abs() > 0.05);
+        // A compliant one lands where C + α̃λ = 0.
+        let alpha = 1e-6;
+        let t = volume_step_along(&line, goal, alpha, 0.0, H);
+        assert!((line.at(t) - goal + alpha / (H * H) * t).abs() < 1e-12 * goal);
+    }
+
+    #[test]
+    fn the_gas_step_along_its_line_solves_the_substep_exactly() {
+        let line = sphere_line(0.1);
+        let (ambient, hl) = (1e5, 1e-5);
+        let held = 1.3e5 * line.at(0.0) + ambient * hl;
+        let lambda = 2e-3 * H * H;
+        let t = gas_step_along(&line, 1e-9, held, hl, ambient, lambda, H);
+        let residual = (lambda + t) / (H * H) - (held / (line.at(t) + hl) - ambient);
+        assert!(residual.abs() < 1e-9 * ambient, "{residual}");
+        assert!(t > 0.0, "the gas pushes out");
+    }
+
+    #[test]
+    fn line_steps_fall_back_to_zero_or_linear_not_nan() {
+        let flat = Cubic::default();
+        assert_eq!(volume_step_along(&flat, 1.0, 0.0, 0.0, H), 0.0);
+        assert!(gas_step_along(&flat, 1e-9, 1.0, 0.0, 1e5, 0.0, H).is_finite());
+        let nan = Cubic { c: [f64::NAN; 4] };
+        assert_eq!(volume_step_along(&nan, 1.0, 0.0, 0.0, H), 0.0);
+        assert_eq!(gas_step_along(&nan, 1e-9, 1.0, 0.0, 1e5, 0.0, H), 0.0);
     }
 
     #[test]
