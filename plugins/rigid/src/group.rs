@@ -9,7 +9,8 @@ use nucleus_sdk::serde_json::{self, Value};
 use serde::{Deserialize, Serialize};
 
 use crate::matching::{
-    classify_pins, fit_frame, goal_distances, project_goals, Anchor, BodyRef, Frame,
+    classify_pins, fit_frame, goal_distances, project_goals, rigidify_velocities, Anchor, BodyRef,
+    Frame,
 };
 
 /// The parameters of the `rigid` kind, as written in a scene.
@@ -436,6 +437,9 @@ impl ConstraintGroup for RigidGroup {
         if self.bodies.iter().any(|b| b.alpha > 0.0) {
             s = s | Stages::BEGIN_SUBSTEP;
         }
+        if self.bodies.iter().any(|b| b.alpha == 0.0) {
+            s = s | Stages::END_SUBSTEP;
+        }
         if self.bodies.iter().any(|b| b.spin != DVec3::ZERO) {
             s = s | Stages::FORCE;
         }
@@ -472,6 +476,19 @@ impl ConstraintGroup for RigidGroup {
     /// Resets the accumulated displacements `μ` (XPBD's `wλ`) to 0.
     fn begin_substep(&mut self, _ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
         self.mu.fill(DVec3::ZERO);
+        Ok(())
+    }
+
+    /// The velocities of every fully rigid body (compliance 0) projected onto rigid motion,
+    /// keeping its linear and angular momentum ([`rigidify_velocities`]).
+    fn end_substep(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
+        let p = ctx.particles();
+        self.check_particles(p.x.len().min(p.v.len()).min(p.inv_mass.len()))?;
+        for b in &self.bodies {
+            if b.alpha == 0.0 && Self::is_movable(b) {
+                rigidify_velocities(&self.body_ref(b), p.x, p.v, p.inv_mass);
+            }
+        }
         Ok(())
     }
 

@@ -552,6 +552,94 @@ pub fn project_goals(
     }
 }
 
+/// Projects the velocities of a fully rigid body onto the rigid motions, in the mass metric:
+/// `vᵢ ← v̄ + ω × (xᵢ − c)` with the linear momentum `P = Σ mᵢ vᵢ = M v̄` and the angular
+/// momentum `L = Σ mᵢ (xᵢ − c) × vᵢ = I ω` of the particles kept exactly (`I` the inertia
+/// tensor about `c`), so the kinetic energy can only decrease: what is removed is the
+/// particles' motion relative to each other, which a rigid body does not have.
+///
+/// Free bodies only (`c` the centre of mass, `v̄` its velocity) and bodies held at one point
+/// (`c` the pins' centroid, `v̄` the pins' mean velocity, the momenta taken relative to it);
+/// a body held along a line or by three pins keeps its velocities. A collinear body has no
+/// inertia about its own line and gets no spin about it.
+pub fn rigidify_velocities(body: &BodyRef<'_>, x: &[DVec3], v: &mut [DVec3], w: &[f64]) {
+    let n = body.ids.len();
+    let (c, vc) = match body.anchor {
+        Anchor::Free => {
+            let origin = x[body.ids[0] as usize];
+            let (mut m, mut sx, mut sv) = (0.0, DVec3::ZERO, DVec3::ZERO);
+            for k in 0..n {
+                let i = body.ids[k] as usize;
+                let mk = body.mass[k];
+                m += mk;
+                sx += (x[i] - origin) * mk;
+                sv += v[i] * mk;
+            }
+            if m <= 0.0 {
+                return;
+            }
+            (origin + sx / m, sv / m)
+        }
+        Anchor::Point => {
+            let pins = &body.ids[..body.pinned];
+            let count = pins.len() as f64;
+            let vc = pins.iter().map(|&i| v[i as usize]).sum::<DVec3>() / count;
+            (pin_centroid(body, x), vc)
+        }
+        Anchor::Line { .. } | Anchor::Full => return,
+    };
+    let (mut l, mut inertia) = (DVec3::ZERO, DMat3::ZERO);
+    for k in body.pinned..n {
+        let i = body.ids[k] as usize;
+        let r = x[i] - c;
+        let mk = body.mass[k];
+        l += r.cross(v[i] - vc) * mk;
+        inertia += (DMat3::IDENTITY * r.length_squared() - outer(r, r)) * mk;
+    }
+    let omega = solve_inertia(&inertia, l);
+    for k in body.pinned..n {
+        let i = body.ids[k] as usize;
+        if w[i] > 0.0 {
+            v[i] = vc + omega.cross(x[i] - c);
+        }
+    }
+}
+
+#[inline]
+fn outer(a: DVec3, b: DVec3) -> DMat3 {
+    DMat3::from_cols(a * b.x, a * b.y, a * b.z)
+}
+
+/// `I⁻¹ L` for a symmetric positive semi-definite inertia tensor; along a direction of
+/// (nearly) zero inertia — a collinear body's own axis — the spin is 0.
+fn solve_inertia(inertia: &DMat3, l: DVec3) -> DVec3 {
+    let trace = inertia.x_axis.x + inertia.y_axis.y + inertia.z_axis.z;
+    if trace.is_nan() || trace <= 0.0 || trace.is_infinite() {
+        return DVec3::ZERO;
+    }
+    let det = inertia.determinant();
+    if det > 1e-9 * trace * trace * trace {
+        return inertia.inverse() * l;
+    }
+    // Nearly singular (a collinear body): invert on the eigenvectors of non-vanishing inertia
+    // only. A symmetric 3 × 3 embeds in the 4 × 4 Jacobi solver as its lower block.
+    let mut m = [[0.0; 4]; 4];
+    for r in 0..3 {
+        for col in 0..3 {
+            m[r + 1][col + 1] = inertia.col(col)[r];
+        }
+    }
+    let (values, vectors) = symmetric_eigen4(m);
+    let mut omega = DVec3::ZERO;
+    for (value, vector) in values.iter().zip(&vectors) {
+        let e = DVec3::new(vector[1], vector[2], vector[3]);
+        if *value > 1e-9 * trace && e.length_squared() > 0.5 {
+            omega += e * (e.dot(l) / value);
+        }
+    }
+    omega
+}
+
 /// The distance of every free particle from its goal (m), for residuals: calls `f(k, d)` with
 /// the body offset `k` and the distance `d = |xᵢ − gᵢ|`.
 pub fn goal_distances(
@@ -1167,6 +1255,68 @@ mod tests {
         );
         for (a, b) in y.iter().zip(&after_one) {
             assert!((*a - *b).length() < 1e-14);
+        }
+    }
+
+    #[test]
+    fn rigidified_velocities_keep_both_momenta_and_lose_energy() {
+        let mut rng = Rng(111);
+        for shape in 0..3 {
+            let points = match shape {
+                0 => random_points(&mut rng, 20),
+                1 => flat_points(&mut rng, 20),
+                _ => collinear_points(&mut rng, 20),
+            };
+            let tb = TestBody::free(points, &mut rng);
+            let x = deformed(&mut rng, &tb.rest, false);
+            let v0: Vec<DVec3> = (0..x.len()).map(|_| rng.vec3(3.0)).collect();
+            let mut v = v0.clone();
+            rigidify_velocities(&tb.body(), &x, &mut v, &tb.inv_mass());
+            let m = &tb.mass;
+            let total: f64 = m.iter().sum();
+            let c = (0..x.len()).map(|k| x[k] * m[k]).sum::<DVec3>() / total;
+            let momentum = |v: &[DVec3]| (0..x.len()).map(|k| v[k] * m[k]).sum::<DVec3>();
+            let angular = |v: &[DVec3]| {
+                (0..x.len())
+                    .map(|k| (x[k] - c).cross(v[k]) * m[k])
+                    .sum::<DVec3>()
+            };
+            let energy = |v: &[DVec3]| {
+                (0..x.len())
+                    .map(|k| 0.5 * m[k] * v[k].length_squared())
+                    .sum::<f64>()
+            };
+            let scale = momentum(&v0.iter().map(|v| v.abs()).collect::<Vec<_>>()).length();
+            assert!(
+                (momentum(&v) - momentum(&v0)).length() < 1e-13 * scale,
+                "P, shape {shape}"
+            );
+            let l0 = angular(&v0);
+            if shape < 2 {
+                assert!(
+                    (angular(&v) - l0).length() < 1e-12 * scale * 3.0,
+                    "L, shape {shape}"
+                );
+            } else {
+                // A collinear body keeps L perpendicular to its line (it has no inertia along it).
+                let axis = (x[1] - x[0]).normalize();
+                let perp = |l: DVec3| l - axis * axis.dot(l);
+                assert!((perp(angular(&v)) - perp(l0)).length() < 1e-9 * scale * 3.0);
+            }
+            assert!(energy(&v) <= energy(&v0) + 1e-12);
+            // The result is a rigid field: every pair's relative velocity is normal to it.
+            for i in 0..x.len() {
+                for j in 0..x.len() {
+                    let rel = (v[j] - v[i]).dot(x[j] - x[i]);
+                    assert!(rel.abs() < 1e-9 * (1.0 + (x[j] - x[i]).length()), "{rel}");
+                }
+            }
+            // A rigid field is left as it was.
+            let mut again = v.clone();
+            rigidify_velocities(&tb.body(), &x, &mut again, &tb.inv_mass());
+            for (a, b) in again.iter().zip(&v) {
+                assert!((*a - *b).length() < 1e-9);
+            }
         }
     }
 

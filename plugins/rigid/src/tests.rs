@@ -94,7 +94,10 @@ fn every_target_object_is_one_body_by_default() {
     );
     let mut sim = build(&text);
     assert_eq!(sim.groups[0].len, 2);
-    assert_eq!(sim.groups[0].stages, Stages::PROJECT | Stages::REPORT);
+    assert_eq!(
+        sim.groups[0].stages,
+        Stages::PROJECT | Stages::END_SUBSTEP | Stages::REPORT
+    );
     let stats = report(&mut sim);
     assert_eq!(stats.len(), 2 * REPORT_COLUMNS.len());
     assert_eq!(stats[0].0, "rigid.block.tx");
