@@ -44,34 +44,47 @@
 //! openings) ≠ 0`: a sail is pushed, and momentum is not conserved (the air outside takes
 //! it). Off the boundary `gᵢ` is still the gradient of the capped volume.
 //!
-//! ## The substep: normals frozen, `λ` warm-started
+//! ## The substep: directions frozen, each correction exact along its line
 //!
-//! Every chamber's normals `gᵢ` (and `S = Σ wᵢ|gᵢ|²`) are computed once per substep, in the
-//! `force` stage, at the positions the substep starts from (`x0`), and every correction of the
-//! substep moves vertex `i` by `Δxᵢ = wᵢ gᵢ Δλ` along them, while the constraint is evaluated
-//! at the current positions. On a closed chamber `Σ gᵢ = 0` and `Σ x0ᵢ × gᵢ = 0`, so each
-//! correction leaves both discrete momenta of the step unchanged — linear `Σ mᵢ(xᵢ − x0ᵢ)/h`
-//! and angular `Σ mᵢ x0ᵢ × xᵢ / h` — with *any* masses (kinematic vertices, which do not
-//! move, are external). With the normals taken at the current positions instead, the angular
-//! momentum changes by `−Σ mᵢ vᵢ × Δxᵢ` per correction: for a spinning, inflated balloon an
-//! outward push *adds* spin in proportion to the spin, and an inflated balloon left to itself
-//! spun up from rounding noise (its kinetic energy grew a hundredfold every third of a second
-//! at 600 substeps/s).
+//! Every chamber's normals `gᵢ` are computed once per substep, in the `force` stage, at the
+//! positions the substep starts from (`x0`), and every correction of the substep moves vertex
+//! `i` along the same direction `uᵢ = wᵢ gᵢ` — the XPBD displacement `Δxᵢ = wᵢ ∇ᵢC Δλ` —
+//! while the constraint is evaluated at the current positions.
 //!
-//! `λ` is the total multiplier of the substep, accumulated over its passes. A soft chamber
-//! (the gas, or a compliant volume) starts it from the pressure it applied over the *last*
-//! substep: the `force` stage pushes with that pressure, `vᵢ += h wᵢ p gᵢ` (so the prediction
-//! carries the impulse `h² p`), and `begin_substep` sets `λ = h² p`. The first projection then
-//! corrects it by a Newton step, which moves `λ/h²` to a convex combination of the pressure it
-//! started from and the constraint's own pressure at the current positions, so it never
-//! exceeds the pressures the chamber has had. Without it, one pass per substep converges only
-//! across substeps and the gas pushes with `(p − p_atm)/(1 + h² (p/V) S)` instead of `p −
-//! p_atm`: for real air in a 10 cm, 50 g balloon at 600 substeps/s, about a twentieth of
-//! its pressure (in the Boyle test, with air 50 times softer, the applied pressure lagged
-//! Boyle's by 1.9 %; warm-started, by 6·10⁻⁷). A
-//! **hard** volume starts from `λ = 0`: its `λ` holds impulses that remove violations (the
-//! first substep of an inflation to twice the volume pushes with tens of kPa), and pushing
-//! with those again made the balloon explode.
+//! * **Momentum.** On a closed chamber `Σ gᵢ = 0` and `Σ x0ᵢ × gᵢ = 0`, so each correction
+//!   leaves both discrete momenta of the step unchanged — linear `Σ mᵢ(xᵢ − x0ᵢ)/h` and
+//!   angular `Σ mᵢ x0ᵢ × xᵢ / h` — with *any* masses (kinematic vertices, which do not move,
+//!   are external). With normals taken at the current positions instead, the angular momentum
+//!   changes by `−Σ mᵢ vᵢ × Δxᵢ` per correction: for a spinning, inflated balloon an outward
+//!   push *adds* spin in proportion to the spin, and an inflated balloon left to itself spun up
+//!   from rounding noise (its kinetic energy grew a hundredfold every third of a second at
+//!   600 substeps/s).
+//! * **Exact along the line.** The volume is a cubic polynomial of the positions, so along
+//!   the line of a correction it is exactly `V(x + t u) = c₀ + c₁t + c₂t² + c₃t³`
+//!   ([`geometry::Surface::volume_along`]): `c₀ = V(x)`, `c₁ = Σ ∇ᵢV(x)·uᵢ`, `c₂ = Σ (xᵢ −
+//!   r)·mᵢ/6` with per-vertex moments `mᵢ = Σ_{t=(i,j,k)} uⱼ × uₖ` and `c₃ = Σₜ ua·(ub × uc)/6`,
+//!   both fixed for the substep ([`geometry::Surface::line_moments`]). A pass costs three
+//!   cross products per triangle; the scalar equation of the constraint along the line is then
+//!   solved by Newton's method on the cubic ([`solve::volume_step_along`],
+//!   [`solve::gas_step_along`]), starting from the linear XPBD step below. A hard volume is
+//!   met exactly by one pass, however large the correction: with the linear step alone, a
+//!   balloon held at twice its volume settled 0.17 % short (the stretch pass before it pulls
+//!   the volume 7 % down every substep, and one linear step from there misses by the
+//!   curvature); now to rounding.
+//! * **Warm start.** `λ` is the total multiplier of the substep, accumulated over its passes.
+//!   A soft chamber (the gas, or a compliant volume) starts it from the pressure it applied
+//!   over the *last* substep: the `force` stage pushes with that pressure, `vᵢ += h p uᵢ` (so
+//!   the prediction carries the impulse `h² p`), and `begin_substep` sets `λ = h² p`. The
+//!   first projection moves `λ/h²` to a convex combination of the pressure it started from
+//!   and the constraint's own pressure at the current positions, so it never exceeds the
+//!   pressures the chamber has had. Without it, one pass per substep converges only across
+//!   substeps, and against a membrane the gas pushes with about `(p − p_atm)/(1 + h² (p/V) S)`,
+//!   `S = Σ wᵢ|gᵢ|²`, instead of `p − p_atm`: for real air in a 10 cm, 50 g balloon at 600
+//!   substeps/s, about a twentieth of its pressure (in the Boyle test, with air 50 times
+//!   softer, the applied pressure lagged Boyle's by 1.9 %; now it matches to rounding). A
+//!   **hard** volume starts from `λ = 0`: its `λ` holds the impulses that removed violations
+//!   (the first substep of an inflation to twice the volume pushes with tens of kPa), and
+//!   pushing with those again made the balloon explode.
 //!
 //! ## `pressure`: the volume constraint (closed chambers)
 //!
@@ -79,6 +92,9 @@
 //! C = V(x) − V_target − α p,     ∇ᵢC = gᵢ,     α = compliance × V_rest
 //! Δλ = (−C − α̃λ) / (Σᵢ wᵢ|gᵢ|² + α̃),   α̃ = α/h²,   Δxᵢ = wᵢ gᵢ Δλ,   λ ← λ + Δλ
 //! ```
+//!
+//! is the linear XPBD step; the plugin takes the root of `C(x + Δλ u) + α̃(λ + Δλ) = 0` nearest
+//! it, exactly along the line.
 //!
 //! **Units.** `C` in m³, `gᵢ` in m², so `λ` is in Pa·s² and `λ/h²` is the gauge pressure the
 //! constraint applies (Pa; the force on vertex `i` is `gᵢ λ/h²`). The compliance `α` is in
@@ -126,20 +142,21 @@
 //! balloon of the tests at air tightness 0). A closed chamber has no
 //! openings and never leaks, whatever its air tightness.
 //!
-//! **The gas step** ([`solve::gas_delta_lambda`]): the substep's implicit equations are
+//! **The gas step** ([`solve::gas_step_along`]): the substep's implicit equations are
 //! `M(x − x̃) = g λ` and `λ/h² = n_end/V(x) − p_atm`; with the leak folded in, the chamber holds
-//! `N = n + p_atm hL` in `V + hL`, and one Newton step, linearized with `dV = Σ gᵢ·Δxᵢ = S Δλ`
-//! and `dp/dV = −N/(V + hL)²`, is
+//! `N = n + p_atm hL` in `V + hL`. Linearized with `dV = Σ gᵢ·Δxᵢ = S Δλ` and `dp/dV =
+//! −N/(V + hL)²`, one Newton step is ([`solve::gas_delta_lambda`])
 //!
 //! ```text
 //! Δλ = (h² (N/(V + hL) − p_atm) − λ) / (1 + h² N/(V + hL)² S),    Δxᵢ = wᵢ gᵢ Δλ
 //! ```
 //!
-//! the XPBD step of a volume constraint whose compliance is the gas's own, `α = V/p`. The gas
-//! is integrated implicitly, so air as stiff as the real one (a 10 cm balloon of 50 g answers
-//! a 1 % squeeze with 1 kPa) is stable at ordinary substeps, where an explicit pressure force
-//! is not. `λ/h²` is the gauge pressure the step applied. After each pass `n` is updated to
-//! the gas left at the volume the step moves the chamber to. A volume below
+//! the XPBD step of a volume constraint whose compliance is the gas's own, `α = V/p`; the
+//! plugin solves the same equation exactly along the line (`V(Δλ)` the cubic), starting from
+//! it. The gas is integrated implicitly, so air as stiff as the real one (a 10 cm balloon of
+//! 50 g answers a 1 % squeeze with 1 kPa) is stable at ordinary substeps, where an explicit
+//! pressure force is not. `λ/h²` is the gauge pressure the step applied. After each pass `n`
+//! is updated to the gas left at the volume the step moves the chamber to. A volume below
 //! `10⁻⁶ A_rest^{3/2}` (a collapsed or inverted chamber) is taken at that floor, so `p` stays
 //! finite.
 //!
