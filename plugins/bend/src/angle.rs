@@ -23,6 +23,7 @@
 use glam::DVec3;
 
 use crate::step::{xpbd_correction, Correction};
+use crate::trig::atan2;
 
 /// Below this length (m) an edge has no direction: its angles are skipped for that pass.
 pub const MIN_LENGTH: f64 = 1e-12;
@@ -43,7 +44,7 @@ pub fn edge_angle(x: &[DVec3; 3]) -> Option<f64> {
     if !(a.length_squared() >= min_sq && b.length_squared() >= min_sq) {
         return None;
     }
-    let phi = a.cross(b).length().atan2(a.dot(b));
+    let phi = atan2(a.cross(b).length(), a.dot(b));
     phi.is_finite().then_some(phi)
 }
 
@@ -60,15 +61,17 @@ pub fn edge_angle_gradient(x: &[DVec3; 3]) -> Option<(f64, [DVec3; 3])> {
         return None;
     }
     let n = a.cross(b);
-    let n_len = n.length();
+    let n_sq = n.length_squared();
     // Collinear, or NaN.
-    if n_len.is_nan() || n_len < MIN_SIN * (a_sq * b_sq).sqrt() {
+    if n_sq.is_nan() || n_sq < MIN_SIN * MIN_SIN * a_sq * b_sq {
         return None;
     }
-    let phi = n_len.atan2(a.dot(b));
-    let n_hat = n / n_len;
-    let gi = -n_hat.cross(a) / a_sq;
-    let gk = n_hat.cross(b) / b_sq;
+    let n_len = n_sq.sqrt();
+    let phi = atan2(n_len, a.dot(b));
+    // ∇xi φ = −(n × a)/(|n||a|²), ∇xk φ = (n × b)/(|n||b|²): one division for both.
+    let r = 1.0 / (n_len * a_sq * b_sq);
+    let gi = n.cross(a) * (-b_sq * r);
+    let gk = n.cross(b) * (a_sq * r);
     let grad = [gi, -(gi + gk), gk];
     (phi.is_finite() && grad.iter().all(|g| g.is_finite())).then_some((phi, grad))
 }

@@ -37,7 +37,7 @@
 
 use glam::DVec3;
 
-use crate::step::{xpbd_correction, Correction};
+use crate::step::Correction;
 
 /// Below this `|v|` (≈ angle in rad) the hinge is flat: skipped for that pass.
 pub const MIN_V: f64 = 1e-14;
@@ -112,9 +112,31 @@ pub fn project_isometric(
     lambda: f64,
     h: f64,
 ) -> Option<Correction<4>> {
-    let (c, v_hat) = isometric_constraint(x, k)?;
-    let grad = [v_hat * k[0], v_hat * k[1], v_hat * k[2], v_hat * k[3]];
-    xpbd_correction(c, &grad, w, alpha, lambda, h)
+    let v = curvature_vector(x, k);
+    let c_sq = v.length_squared();
+    if !(c_sq >= MIN_V * MIN_V && c_sq.is_finite()) {
+        return None;
+    }
+    let c = c_sq.sqrt();
+    // Σ wᵢ|∇ᵢC|² = Σ wᵢK'ᵢ², since |v̂| = 1.
+    let w_grad_sq =
+        w[0] * k[0] * k[0] + w[1] * k[1] * k[1] + w[2] * k[2] * k[2] + w[3] * k[3] * k[3];
+    let alpha_tilde = alpha / (h * h);
+    let denom = w_grad_sq + alpha_tilde;
+    if !(denom > f64::MIN_POSITIVE && denom.is_finite() && w_grad_sq > 0.0) {
+        return None;
+    }
+    // Δλ = (−C − α̃λ)/denom; Δxᵢ = wᵢK'ᵢ v̂ Δλ = wᵢK'ᵢ (Δλ/C) v: one division for both.
+    let f = (-c - alpha_tilde * lambda) / (denom * c);
+    Some(Correction {
+        dx: [
+            v * (w[0] * k[0] * f),
+            v * (w[1] * k[1] * f),
+            v * (w[2] * k[2] * f),
+            v * (w[3] * k[3] * f),
+        ],
+        delta_lambda: f * c,
+    })
 }
 
 #[cfg(test)]

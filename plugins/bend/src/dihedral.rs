@@ -40,6 +40,7 @@
 use glam::DVec3;
 
 use crate::step::{xpbd_correction, Correction};
+use crate::trig::atan2;
 
 /// Below this length (m) the hinge axis has no direction, and below this height (m) over
 /// the axis a wing has no plane: the hinge is skipped for that pass.
@@ -62,6 +63,7 @@ pub fn wrap_angle(d: f64) -> f64 {
 /// The intermediate quantities of a hinge, `None` if degenerate.
 struct Hinge {
     e: DVec3,
+    e_sq: f64,
     e_len: f64,
     a: DVec3,
     b: DVec3,
@@ -75,8 +77,7 @@ struct Hinge {
 fn hinge(x: &[DVec3; 4]) -> Option<Hinge> {
     let e = x[1] - x[0];
     let e_sq = e.length_squared();
-    let e_len = e_sq.sqrt();
-    if !(e_len >= MIN_LENGTH && e_len.is_finite()) {
+    if !(e_sq >= MIN_LENGTH * MIN_LENGTH && e_sq.is_finite()) {
         return None;
     }
     let a = x[2] - x[0];
@@ -91,7 +92,8 @@ fn hinge(x: &[DVec3; 4]) -> Option<Hinge> {
     }
     Some(Hinge {
         e,
-        e_len,
+        e_sq,
+        e_len: e_sq.sqrt(),
         a,
         b,
         n1,
@@ -102,11 +104,13 @@ fn hinge(x: &[DVec3; 4]) -> Option<Hinge> {
 }
 
 impl Hinge {
+    /// `atan2((n₁ × n₂)·ê, n₁·n₂)`, with both arguments scaled by |e| (atan2 does not mind).
     #[inline]
     fn angle(&self) -> f64 {
-        let sin = self.n1.cross(self.n2).dot(self.e) / self.e_len;
-        let cos = self.n1.dot(self.n2);
-        sin.atan2(cos)
+        atan2(
+            self.n1.cross(self.n2).dot(self.e),
+            self.n1.dot(self.n2) * self.e_len,
+        )
     }
 }
 
@@ -125,11 +129,13 @@ pub fn dihedral_angle(x: &[DVec3; 4]) -> Option<f64> {
 pub fn dihedral_angle_gradient(x: &[DVec3; 4]) -> Option<(f64, [DVec3; 4])> {
     let g = hinge(x)?;
     let phi = g.angle();
-    let gk = g.n1 * (-g.e_len / g.n1_sq);
-    let gl = g.n2 * (-g.e_len / g.n2_sq);
-    let e_sq = g.e_len * g.e_len;
-    let sk = g.a.dot(g.e) / e_sq;
-    let sl = g.b.dot(g.e) / e_sq;
+    // 1/|e|², 1/|n₁|² and 1/|n₂|² from one division.
+    let r = 1.0 / (g.e_sq * g.n1_sq * g.n2_sq);
+    let inv_e_sq = g.n1_sq * g.n2_sq * r;
+    let gk = g.n1 * (-g.e_len * g.e_sq * g.n2_sq * r);
+    let gl = g.n2 * (-g.e_len * g.e_sq * g.n1_sq * r);
+    let sk = g.a.dot(g.e) * inv_e_sq;
+    let sl = g.b.dot(g.e) * inv_e_sq;
     let gi = -(gk * (1.0 - sk) + gl * (1.0 - sl));
     let gj = -(gk * sk + gl * sl);
     let grad = [gi, gj, gk, gl];

@@ -94,6 +94,7 @@ pub mod bergou2006_isometric;
 pub mod dihedral;
 pub mod group;
 pub mod step;
+pub mod trig;
 
 #[cfg(test)]
 mod tests;
