@@ -35,8 +35,6 @@ pub struct Measure {
     pub volume: f64,
     /// Total area of the openings (m²): the magnitude of each loop's vector area, summed.
     pub open_area: f64,
-    /// Area of the surface itself (m²), caps excluded.
-    pub area: f64,
 }
 
 /// A cubic polynomial `c₀ + c₁t + c₂t² + c₃t³`: the volume along a line of displacements.
@@ -80,7 +78,7 @@ impl<'a> Surface<'a> {
         x[self.vertices[l as usize] as usize]
     }
 
-    /// The volume, opening area and surface area at positions `x` (global slice), and, if
+    /// The volume and opening area at positions `x` (global slice), and, if
     /// `normals` is given (one per local vertex), the pressure normals
     ///
     /// ```text
@@ -99,16 +97,13 @@ impl<'a> Surface<'a> {
         };
         let r = x[first as usize];
         let mut volume = 0.0;
-        let mut area2 = 0.0;
         match normals {
             Some(g) => {
                 g.fill(DVec3::ZERO);
                 for (&[a, b, c], &[pa, pb, pc]) in self.triangles.iter().zip(self.corners) {
                     let (xa, xb, xc) = (x[pa as usize], x[pb as usize], x[pc as usize]);
                     volume += tet_volume(r, xa, xb, xc);
-                    let n2 = (xb - xa).cross(xc - xa);
-                    area2 += n2.length();
-                    let e = n2 / 6.0;
+                    let e = (xb - xa).cross(xc - xa) / 6.0;
                     g[a as usize] += e;
                     g[b as usize] += e;
                     g[c as usize] += e;
@@ -118,7 +113,6 @@ impl<'a> Surface<'a> {
                 for &[pa, pb, pc] in self.corners {
                     let (xa, xb, xc) = (x[pa as usize], x[pb as usize], x[pc as usize]);
                     volume += tet_volume(r, xa, xb, xc);
-                    area2 += (xb - xa).cross(xc - xa).length();
                 }
             }
         }
@@ -140,11 +134,20 @@ impl<'a> Surface<'a> {
             }
             open_area += 0.5 * vector_area.length();
         }
-        Measure {
-            volume,
-            open_area,
-            area: 0.5 * area2,
-        }
+        Measure { volume, open_area }
+    }
+
+    /// The area of the surface itself (m²), caps excluded.
+    pub fn area(&self, x: &[DVec3]) -> f64 {
+        let doubled: f64 = self
+            .corners
+            .iter()
+            .map(|&[a, b, c]| {
+                let (xa, xb, xc) = (x[a as usize], x[b as usize], x[c as usize]);
+                (xb - xa).cross(xc - xa).length()
+            })
+            .sum();
+        0.5 * doubled
     }
 
     /// The enclosed volume alone (m³), as [`measure`](Self::measure) computes it: the hot
@@ -452,7 +455,7 @@ pub(crate) mod tests {
         let m = Mesh::cuboid(1.0, 2.0, 3.0);
         let r = m.measure();
         assert!((r.volume - 6.0).abs() < 1e-14, "{r:?}");
-        assert!((r.area - 22.0).abs() < 1e-14, "{r:?}");
+        assert!((m.surface().area(&m.x) - 22.0).abs() < 1e-14);
         assert_eq!(r.open_area, 0.0);
         // Far from the origin the volume keeps its digits.
         let mut far = Mesh::cuboid(1.0, 2.0, 3.0);
@@ -510,7 +513,7 @@ pub(crate) mod tests {
         let r = m.measure();
         assert!((r.volume - 6.0).abs() < 1e-14, "{r:?}");
         assert!((r.open_area - 2.0).abs() < 1e-14, "{r:?}");
-        assert!((r.area - 20.0).abs() < 1e-14, "{r:?}");
+        assert!((m.surface().area(&m.x) - 20.0).abs() < 1e-14);
     }
 
     #[test]
@@ -654,14 +657,18 @@ pub(crate) mod tests {
             *p = DVec3::new(0.3, 0.3, 0.3);
         }
         let r = m.measure();
-        assert_eq!((r.volume, r.area, r.open_area), (0.0, 0.0, 0.0));
+        assert_eq!((r.volume, r.open_area), (0.0, 0.0));
+        assert_eq!(m.surface().area(&m.x), 0.0);
         assert!(m.normals().iter().all(|g| *g == DVec3::ZERO));
         let mut flat = Mesh::uv_sphere(1.0, 4, 6);
         for p in &mut flat.x {
             p.z = 0.0;
         }
         let r = flat.measure();
-        assert!(r.volume.abs() < 1e-15 && r.area > 0.0, "{r:?}");
+        assert!(
+            r.volume.abs() < 1e-15 && flat.surface().area(&flat.x) > 0.0,
+            "{r:?}"
+        );
         assert!(flat.normals().iter().all(|g| g.is_finite()));
     }
 

@@ -251,7 +251,15 @@ impl Chambers {
                     chamber.flip();
                     rest = measure(&chamber);
                 }
-                out.push(object.name.as_str(), chamber, rest);
+                let area = Surface {
+                    vertices: &chamber.vertices,
+                    triangles: &chamber.triangles,
+                    corners: &global_corners(&chamber.vertices, &chamber.triangles),
+                    loops: &[],
+                    loop_vertices: &[],
+                }
+                .area(rest_x);
+                out.push(object.name.as_str(), chamber, rest, area);
             }
         }
         out.directions = vec![DVec3::ZERO; out.vertices.len()];
@@ -260,7 +268,7 @@ impl Chambers {
         Ok(out)
     }
 
-    fn push(&mut self, name: &str, c: topology::Chamber, rest: Measure) {
+    fn push(&mut self, name: &str, c: topology::Chamber, rest: Measure, area: f64) {
         self.names.push(name.to_string());
         self.max_index = self.max_index.max(c.vertices.last().copied());
         self.vertices.extend(&c.vertices);
@@ -278,7 +286,7 @@ impl Chambers {
         self.triangle_start.push(self.triangles.len());
         self.loop_start.push(self.loops.len());
         self.floor
-            .push((VOLUME_FLOOR * rest.area.powf(1.5)).max(f64::MIN_POSITIVE));
+            .push((VOLUME_FLOOR * area.powf(1.5)).max(f64::MIN_POSITIVE));
         self.rest.push(rest);
     }
 
