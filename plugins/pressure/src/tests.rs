@@ -599,3 +599,35 @@ fn a_state_too_small_for_the_group_is_an_error_not_a_panic() {
         assert_eq!(e.expect_err("ran").code, PluginError::FAILED);
     }
 }
+
+#[test]
+fn gas_in_a_flat_open_sheet_stays_finite_and_leaks_to_ambient() {
+    // A flat sail has no capped volume: the gas sits at the volume floor, its opening is the
+    // whole sheet, and with air tightness 0.5 it leaks to ambient without NaN or overshoot.
+    let text = format!(
+        r#"{SOLVER}
+[[objects]]
+name = "sail"
+mass = 0.2
+pins = ["edge:row0"]
+[objects.grid]
+size = [1.0, 1.0]
+resolution = [6, 6]
+
+[[constraints]]
+kind = "stretch"
+
+[[constraints]]
+kind = "gas"
+params = {{ start_pressure = 1000.0, air_tightness = 0.5 }}
+"#
+    );
+    let mut sim = simulation(&text);
+    assert!((stat(&mut sim, "gas.open_area") - 1.0).abs() < 1e-12);
+    for _ in 0..30 {
+        sim.step_frame().expect("step");
+        assert!(sim.positions().iter().all(|p| p.is_finite()));
+    }
+    let gauge = stat(&mut sim, "gas.gauge_pressure");
+    assert!(gauge.is_finite() && gauge.abs() < 1.0, "{gauge}");
+}
