@@ -57,7 +57,7 @@ pub fn attraction_constraint(x: DVec3, center: DVec3, radius: f64) -> Option<(f6
     if !dist.is_finite() || dist < MIN_DISTANCE {
         return None;
     }
-    Some((dist - radius, d / dist))
+    Some((dist - radius, d * dist.recip()))
 }
 
 /// The change one XPBD step makes to a particle.
