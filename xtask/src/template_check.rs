@@ -350,23 +350,49 @@ pub fn bench(profile: &Path, repeats: usize) -> Result<(), String> {
          params = { center = [0.0, 1.0, 0.0], radius = 0.2, period = 0.3 }\n",
     )
     .map_err(|e| format!("{}: {e}", scene.display()))?;
+    // GNU time, where installed, also gives each run's CPU time (user + system): less
+    // sensitive than the wall clock to other processes on a shared machine.
+    let gnu_time = Path::new("/usr/bin/time");
     let mut times: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
+    let mut cpu: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
     for r in 0..repeats {
         // Alternate, so a drift of the machine's speed hits both alike.
         for (k, (name, dir)) in dirs.iter().enumerate() {
             let out_dir = work.join(format!("out-{name}"));
-            let summary = output(
+            let mut cmd = if gnu_time.is_file() {
+                let mut c = Command::new(gnu_time);
+                c.args(["-f", "cpu-seconds %U %S"]).arg(&host);
+                c
+            } else {
                 Command::new(&host)
-                    .arg("run")
-                    .arg(&scene)
-                    .arg("--out")
-                    .arg(&out_dir)
-                    .args(["--no-default-plugins", "--plugins"])
-                    .arg(dir),
-            )?;
-            let ms = step_ms(&summary)?;
-            eprintln!("  run {r} {name}: {ms:.3} ms/frame");
+            };
+            cmd.arg("run")
+                .arg(&scene)
+                .arg("--out")
+                .arg(&out_dir)
+                .args(["--no-default-plugins", "--plugins"])
+                .arg(dir);
+            let out = cmd.output().map_err(|e| format!("{cmd:?}: {e}"))?;
+            let stderr = String::from_utf8_lossy(&out.stderr);
+            if !out.status.success() {
+                return Err(format!("{cmd:?} failed with {}: {stderr}", out.status));
+            }
+            let ms = step_ms(&String::from_utf8_lossy(&out.stdout))?;
+            let seconds = stderr
+                .lines()
+                .filter_map(|l| l.strip_prefix("cpu-seconds "))
+                .map(|l| {
+                    l.split_whitespace()
+                        .filter_map(|t| t.parse::<f64>().ok())
+                        .sum()
+                })
+                .next();
+            eprintln!(
+                "  run {r} {name}: step {ms:.3} ms/frame{}",
+                seconds.map_or(String::new(), |c: f64| format!(", process CPU {c:.2} s"))
+            );
             times[k].push(ms);
+            cpu[k].extend(seconds);
             let _ = std::fs::remove_dir_all(&out_dir);
         }
     }
@@ -387,6 +413,14 @@ pub fn bench(profile: &Path, repeats: usize) -> Result<(), String> {
         lo_out / lo_in,
         med_out / med_in
     );
+    if cpu[0].len() == repeats && cpu[1].len() == repeats {
+        let (cpu_in, cpu_out) = (median(&mut cpu[0]), median(&mut cpu[1]));
+        println!(
+            "  process CPU time (whole run): in-tree median {cpu_in:.2} s, out-of-tree median \
+             {cpu_out:.2} s, ratio {:.3}",
+            cpu_out / cpu_in
+        );
+    }
     match (group_code(&in_tree), group_code(&out_of_tree)) {
         (Ok(a), Ok(b)) if a.is_empty() || b.is_empty() => {
             return Err("no method of the group found in the disassembly".into())
