@@ -712,6 +712,9 @@ fn search<C: Cell>(root: C, query: &C::Query, bounds: &Bounds, max_boxes: u32) -
 
 /// [`search`] with a queue of `N` cells, and whether that queue overflowed (the answer is
 /// then the conservative one: the earliest start of any cell not yet discarded).
+// Never inlined: its frame holds the queue (up to 150 kB for the large one), which would
+// otherwise be reserved, and probed page by page, even by queries that end before any search.
+#[inline(never)]
 fn search_in<C: Cell, const N: usize>(
     root: C,
     query: &C::Query,
