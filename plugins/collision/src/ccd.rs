@@ -120,8 +120,8 @@
 //!
 //! A query examines at most [`CcdOptions::max_boxes`] cells ([`DEFAULT_MAX_BOXES`] =
 //! 20,000, about 5 ms; the reference set needs at most 584). The pending cells live in a
-//! fixed array on the stack: 64 cells first, and a query that outgrows it is run again with
-//! 2,048 (deterministic, so only time is lost). When either bound is reached the answer is
+//! fixed array on the stack: 64 cells (5 kB) first, and a query that outgrows it is run
+//! again with 2,048 (150 kB of stack; deterministic, so only time is lost). When either bound is reached the answer is
 //! `Some(t)` with the earliest start of every cell not yet discarded — still never later
 //! than the true contact, so still no false negative — flagged as not certified. A cell at
 //! the finest parameter resolution (50 halvings of `t`) that can be neither discarded nor
