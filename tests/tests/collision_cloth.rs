@@ -129,7 +129,9 @@ fn deepest(collider: &str, frames: u32, depth: impl Fn(DVec3) -> f64) -> f64 {
         }
     });
     // The cloth did reach the collider.
-    let lowest = cloth.map(|i| sim.positions()[i].y).fold(f64::INFINITY, f64::min);
+    let lowest = cloth
+        .map(|i| sim.positions()[i].y)
+        .fold(f64::INFINITY, f64::min);
     assert!(lowest < 0.2, "the cloth never fell ({lowest})");
     worst
 }
@@ -206,7 +208,9 @@ params = {{ thickness = 0.004, friction_static = 0.8, friction_dynamic = 0.6, co
     assert_eq!(frames_checked, 60);
     assert_eq!(worst, 0, "intersecting triangle pairs");
     // It did fold: its height is far below its side.
-    let top = cloth.map(|i| sim.positions()[i].y).fold(f64::NEG_INFINITY, f64::max);
+    let top = cloth
+        .map(|i| sim.positions()[i].y)
+        .fold(f64::NEG_INFINITY, f64::max);
     assert!(top < 0.2, "still standing: top at {top}");
 }
 
@@ -248,7 +252,9 @@ params = { thickness = 0.004 }
     let x = sim.positions();
     let spread = (0..8)
         .map(|i| x[i * 20 + 10].y)
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), y| (l.min(y), h.max(y)));
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), y| {
+            (l.min(y), h.max(y))
+        });
     assert!(spread.1 - spread.0 > 0.05, "not twisted: {spread:?}");
 }
 
@@ -313,7 +319,10 @@ fn rubber_band_interleaved_schedule_strains_the_ends_less_than_sequential() {
         "rubber band: max strain at the ends interleaved {inter_ends:.4}, sequential \
          {seq_ends:.4}; over the band {inter_all:.4} / {seq_all:.4}"
     );
-    assert!(inter_ends > 0.05, "the band was not stretched: {inter_ends}");
+    assert!(
+        inter_ends > 0.05,
+        "the band was not stretched: {inter_ends}"
+    );
     assert!(
         inter_ends < seq_ends,
         "interleaved {inter_ends} vs sequential {seq_ends}"
@@ -323,8 +332,8 @@ fn rubber_band_interleaved_schedule_strains_the_ends_less_than_sequential() {
 /// Runs a scene file and returns (deepest thickness violation reported by the collision
 /// group over all frames, most intersecting triangle pairs in any frame).
 fn scene_figures(path: &str) -> (f64, usize) {
-    let scene = nucleus_core::Scene::load(std::path::Path::new(path))
-        .unwrap_or_else(|e| panic!("{e}"));
+    let scene =
+        nucleus_core::Scene::load(std::path::Path::new(path)).unwrap_or_else(|e| panic!("{e}"));
     let reg = registry(&[plugin_dir()]);
     let mut sim = Simulation::build(&scene, &reg).unwrap_or_else(|e| panic!("{e}"));
     let (mut pen, mut pairs) = (0.0f64, 0usize);

@@ -204,7 +204,10 @@ fn figure_20_three_particles_colliding_within_one_step_end_separated_in_order() 
             assert!(a < b && b < c, "out of order: {a} {b} {c}");
             // Separated by the thickness (2 × 1 cm) to within 0.1 %: the chain is solved by
             // Gauss-Seidel, which converges geometrically over the passes.
-            assert!(b - a >= 0.02 * 0.999 && c - b >= 0.02 * 0.999, "{a} {b} {c}");
+            assert!(
+                b - a >= 0.02 * 0.999 && c - b >= 0.02 * 0.999,
+                "{a} {b} {c}"
+            );
         }
     }
 }
@@ -250,7 +253,10 @@ fn a_bouncing_ball_loses_e_squared_of_its_height_per_bounce_and_comes_to_rest() 
         prev_y = y;
         heights.push(y);
     });
-    assert!(lowest >= rest_height - 1e-12, "went into the ground: {lowest}");
+    assert!(
+        lowest >= rest_height - 1e-12,
+        "went into the ground: {lowest}"
+    );
     let first = 1.0 - rest_height;
     let mut previous = first;
     for (k, &a) in apexes.iter().take(3).enumerate() {
@@ -268,7 +274,9 @@ fn a_bouncing_ball_loses_e_squared_of_its_height_per_bounce_and_comes_to_rest() 
     let last_second = &heights[heights.len() - 20 * 60..];
     let (lo, hi) = last_second
         .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &y| (l.min(y), h.max(y)));
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &y| {
+            (l.min(y), h.max(y))
+        });
     assert!(hi - lo < 1e-6, "jitter {} m at rest", hi - lo);
     assert!((lo - rest_height).abs() < 1e-6, "rests at {lo}");
     assert!(sim.velocities()[0].length() < 1e-6);

@@ -263,7 +263,10 @@ mod tests {
                 xm[k][axis] -= e;
                 let fd = (c.value(&xp) - c.value(&xm)) / (2.0 * e);
                 let analytic = c.w[k] * c.n[axis];
-                assert!((fd - analytic).abs() < 1e-8, "{k} {axis}: {fd} vs {analytic}");
+                assert!(
+                    (fd - analytic).abs() < 1e-8,
+                    "{k} {axis}: {fd} vs {analytic}"
+                );
             }
         }
     }
@@ -339,7 +342,14 @@ mod tests {
         assert!((v[0] - DVec3::new(1.0, 2.0, 0.0)).length() < 1e-15);
         // Slow approach: inelastic.
         let mut v = [DVec3::ZERO];
-        c.restitution(&mut v, &[DVec3::new(0.0, -0.05, 0.0)], &[1.0], 0.5, 0.1, DVec3::ZERO);
+        c.restitution(
+            &mut v,
+            &[DVec3::new(0.0, -0.05, 0.0)],
+            &[1.0],
+            0.5,
+            0.1,
+            DVec3::ZERO,
+        );
         assert_eq!(v[0], DVec3::ZERO);
     }
 

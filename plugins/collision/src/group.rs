@@ -351,9 +351,7 @@ impl CollisionGroup {
     }
 
     fn is_excluded(&self, a: u32, b: u32) -> bool {
-        self.excluded
-            .binary_search(&[a.min(b), a.max(b)])
-            .is_ok()
+        self.excluded.binary_search(&[a.min(b), a.max(b)]).is_ok()
     }
 
     /// The contacts of the current substep.
@@ -492,8 +490,7 @@ impl CollisionGroup {
                     }
                     let f = self.edges[j as usize];
                     let fo = self.edge_obj[j as usize];
-                    if f.contains(&e[0]) || f.contains(&e[1]) || !self.objects_may_collide(eo, fo)
-                    {
+                    if f.contains(&e[0]) || f.contains(&e[1]) || !self.objects_may_collide(eo, fo) {
                         return;
                     }
                     if Self::all_kinematic(&[e[0], e[1], f[0], f[1]], inv_mass) {
@@ -601,10 +598,8 @@ impl CollisionGroup {
     /// Whether some primitive's tight swept box left the box the candidates were found with.
     fn escaped(&self, x0: &[DVec3], x: &[DVec3]) -> bool {
         (0..self.verts.len()).any(|i| !self.vert_boxes[i].contains(&self.vert_box(i, x0, x)))
-            || (0..self.edges.len())
-                .any(|i| !self.edge_boxes[i].contains(&self.edge_box(i, x0, x)))
-            || (0..self.faces.len())
-                .any(|i| !self.face_boxes[i].contains(&self.face_box(i, x0, x)))
+            || (0..self.edges.len()).any(|i| !self.edge_boxes[i].contains(&self.edge_box(i, x0, x)))
+            || (0..self.faces.len()).any(|i| !self.face_boxes[i].contains(&self.face_box(i, x0, x)))
     }
 
     /// World boxes of the colliders over the substep (their rest-frame bounds, grown by
@@ -658,14 +653,16 @@ impl CollisionGroup {
                 let (v, f) = (a as usize, b as usize);
                 let p = self.verts[v];
                 let t = self.faces[f];
-                let d = thickness_scale * (self.radius(self.vert_obj[v]) + self.radius(self.face_obj[f]));
+                let d = thickness_scale
+                    * (self.radius(self.vert_obj[v]) + self.radius(self.face_obj[f]));
                 let ids = [p, t[0], t[1], t[2]];
                 pairs::vertex_face(cand.pair, ids, &ids.map(track), d)
             }
             PairKind::EdgeEdge => {
                 let (e, f) = (self.edges[a as usize], self.edges[b as usize]);
                 let d = thickness_scale
-                    * (self.radius(self.edge_obj[a as usize]) + self.radius(self.edge_obj[b as usize]));
+                    * (self.radius(self.edge_obj[a as usize])
+                        + self.radius(self.edge_obj[b as usize]));
                 let ids = [e[0], e[1], f[0], f[1]];
                 pairs::edge_edge(cand.pair, ids, &ids.map(track), d)
             }
@@ -673,14 +670,16 @@ impl CollisionGroup {
                 let p = self.verts[a as usize];
                 let f = self.edges[b as usize];
                 let d = thickness_scale
-                    * (self.radius(self.vert_obj[a as usize]) + self.radius(self.edge_obj[b as usize]));
+                    * (self.radius(self.vert_obj[a as usize])
+                        + self.radius(self.edge_obj[b as usize]));
                 let ids = [p, p, f[0], f[1]];
                 pairs::vertex_edge(cand.pair, ids, &ids.map(track), d)
             }
             PairKind::VertexVertex => {
                 let (p, q) = (self.verts[a as usize], self.verts[b as usize]);
                 let d = thickness_scale
-                    * (self.radius(self.vert_obj[a as usize]) + self.radius(self.vert_obj[b as usize]));
+                    * (self.radius(self.vert_obj[a as usize])
+                        + self.radius(self.vert_obj[b as usize]));
                 let ids = [p, q, p, p];
                 pairs::vertex_vertex(cand.pair, ids, &ids.map(track), d)
             }
@@ -917,12 +916,10 @@ fn frame(a: DVec3, b: DVec3, c: DVec3) -> Option<glam::DMat3> {
 fn frame_vertices(rest: &[DVec3], verts: &[u32]) -> Option<[u32; 3]> {
     let &a = verts.first()?;
     let pa = rest[a as usize];
-    let &b = verts
-        .iter()
-        .max_by(|&&i, &&j| {
-            pa.distance_squared(rest[i as usize])
-                .total_cmp(&pa.distance_squared(rest[j as usize]))
-        })?;
+    let &b = verts.iter().max_by(|&&i, &&j| {
+        pa.distance_squared(rest[i as usize])
+            .total_cmp(&pa.distance_squared(rest[j as usize]))
+    })?;
     let pb = rest[b as usize];
     let &c = verts.iter().max_by(|&&i, &&j| {
         let area = |k: u32| (pb - pa).cross(rest[k as usize] - pa).length_squared();
@@ -1020,7 +1017,14 @@ impl ConstraintGroup for CollisionGroup {
         }
         for c in &self.contacts {
             let collider_v = c.collider_disp / h;
-            c.restitution(p.v, &self.v_pre, p.inv_mass, self.restitution, threshold, collider_v);
+            c.restitution(
+                p.v,
+                &self.v_pre,
+                p.inv_mass,
+                self.restitution,
+                threshold,
+                collider_v,
+            );
         }
         Ok(())
     }
@@ -1032,7 +1036,11 @@ impl ConstraintGroup for CollisionGroup {
         if x.len() < self.x_pred.len() {
             return Residual::default();
         }
-        let poses: Vec<Pose> = self.colliders.iter().map(|c| c.motion.pose(ctx.time)).collect();
+        let poses: Vec<Pose> = self
+            .colliders
+            .iter()
+            .map(|c| c.motion.pose(ctx.time))
+            .collect();
         let max = self.penetration(x, &poses);
         Residual {
             count: self.contacts.len() as u64,

@@ -397,7 +397,9 @@ fn parse_collider(i: usize, v: &Value) -> Result<Collider, PluginError> {
             let mut out = Vec::with_capacity(keys.len());
             for k in keys {
                 if !(k.time.is_finite() && finite3(&k.translate) && finite3(&k.rotate)) {
-                    return Err(bad("every key needs a finite time, translate and rotate".into()));
+                    return Err(bad(
+                        "every key needs a finite time, translate and rotate".into()
+                    ));
                 }
                 if out.last().is_some_and(|l: &Key| l.time >= k.time) {
                     return Err(bad("key times must increase".into()));

@@ -48,8 +48,14 @@ fn passes(c: &mut Criterion) {
         .warm_up_time(Duration::from_millis(500))
         .measurement_time(Duration::from_secs(2));
     for (name, constraint) in [
-        ("gas", "kind = \"gas\"\nparams = { start_pressure = 1000.0 }"),
-        ("pressure", "kind = \"pressure\"\nparams = { pressure_scale = 1.2 }"),
+        (
+            "gas",
+            "kind = \"gas\"\nparams = { start_pressure = 1000.0 }",
+        ),
+        (
+            "pressure",
+            "kind = \"pressure\"\nparams = { pressure_scale = 1.2 }",
+        ),
     ] {
         let mut sim = scene(constraint);
         let triangles = sim.objects[0].triangles.len() as u64;

@@ -1,0 +1,191 @@
+#!/usr/bin/env python3
+"""The peers' "drape" metrics (../shared/peers/common.py), computed from a `nucleus run` output.
+
+usage: drape_metrics.py OUT_DIR --N N [--frames 120] [--window 60] [key=value ...]
+
+Reads OUT_DIR/frame_NNNN.obj (the `v x y z` lines, in particle order; frame 0 is the initial
+state, frame k the state after k frames), OUT_DIR/stats.csv (`wall_s` = step time of each frame)
+and OUT_DIR/run.json, and prints one JSON line with the same fields as the peers' scripts:
+
+* time_per_frame_s: mean step wall time of frames 2..F (frame 1 is `first_frame_s`);
+  time_per_frame_median_s likewise;
+* strain over the 2N(N-1) structural (grid-aligned) edges (i,j)-(i,j+1) and (i,j)-(i+1,j), where
+  vertex (i, j) has index i*N + j: |l - l0| / l0 per edge, per frame its max and RMS, averaged over
+  the last `window` frames (F-window+1..F) -> strain_max, strain_rms; the largest per-frame max
+  -> strain_max_peak; the mean over the same frames of the max strain of the diagonals
+  (i,j)-(i+1,j+1) -> diag_strain_max;
+* min_height: lowest y at frame F; exploded: NaN anywhere or |x| > 100 m at frame F.
+
+Rest lengths come from frame 0. `key=value` arguments are copied into the JSON line (numbers
+parsed). Pure Python; numpy is used when it is importable (about 20x faster at N = 128).
+"""
+
+import argparse
+import json
+import math
+import os
+import sys
+
+try:
+    import numpy as np
+except ImportError:  # the test suite and this script never need numpy
+    np = None
+
+
+def read_obj_vertices(path):
+    """The `v` lines of an OBJ as a flat list of floats [x0, y0, z0, x1, ...]."""
+    out = []
+    with open(path) as f:
+        for line in f:
+            if line.startswith("v "):
+                _, x, y, z = line.split()[:4]
+                out.append(float(x))
+                out.append(float(y))
+                out.append(float(z))
+    return out
+
+
+def edges(N):
+    struct, diag = [], []
+    for i in range(N):
+        for j in range(N):
+            if j + 1 < N:
+                struct.append((i * N + j, i * N + j + 1))
+            if i + 1 < N:
+                struct.append((i * N + j, (i + 1) * N + j))
+            if i + 1 < N and j + 1 < N:
+                diag.append((i * N + j, (i + 1) * N + j + 1))
+    return struct, diag
+
+
+class Strain:
+    """|l - l0| / l0 over a fixed edge list: per-frame max and RMS."""
+
+    def __init__(self, rest, pairs):
+        self.pairs = pairs
+        if np is not None:
+            self.a = np.array([p[0] for p in pairs])
+            self.b = np.array([p[1] for p in pairs])
+            x = np.asarray(rest).reshape(-1, 3)
+            self.l0 = np.linalg.norm(x[self.a] - x[self.b], axis=1)
+        else:
+            self.l0 = [self._length(rest, a, b) for a, b in pairs]
+
+    @staticmethod
+    def _length(x, a, b):
+        dx = x[3 * a] - x[3 * b]
+        dy = x[3 * a + 1] - x[3 * b + 1]
+        dz = x[3 * a + 2] - x[3 * b + 2]
+        return math.sqrt(dx * dx + dy * dy + dz * dz)
+
+    def frame(self, x):
+        """(max, rms) of the strain at positions x (flat list)."""
+        if np is not None:
+            p = np.asarray(x).reshape(-1, 3)
+            s = np.abs(np.linalg.norm(p[self.a] - p[self.b], axis=1) - self.l0) / self.l0
+            return float(np.max(s)), float(np.sqrt(np.mean(s * s)))
+        mx, sq = 0.0, 0.0
+        for (a, b), l0 in zip(self.pairs, self.l0):
+            s = abs(self._length(x, a, b) - l0) / l0
+            mx = max(mx, s)
+            sq += s * s
+        return mx, math.sqrt(sq / len(self.pairs))
+
+
+def mean(xs):
+    return sum(xs) / len(xs) if xs else None
+
+
+def median(xs):
+    s = sorted(xs)
+    n = len(s)
+    if n == 0:
+        return None
+    return s[n // 2] if n % 2 else 0.5 * (s[n // 2 - 1] + s[n // 2])
+
+
+def wall_times(out_dir):
+    """wall_s of frames 1..F from stats.csv, in frame order."""
+    with open(os.path.join(out_dir, "stats.csv")) as f:
+        header = f.readline().strip().split(",")
+        fi, wi = header.index("frame"), header.index("wall_s")
+        rows = [line.strip().split(",") for line in f if line.strip()]
+    return [float(r[wi]) for r in sorted(rows, key=lambda r: int(r[fi]))]
+
+
+def metrics(out_dir, N, frames, window):
+    run = {}
+    run_json = os.path.join(out_dir, "run.json")
+    if os.path.exists(run_json):
+        with open(run_json) as f:
+            run = json.load(f)
+    if run.get("status") != "complete":
+        return {"error": run.get("error", "run incomplete (no complete run.json)")}
+    times = wall_times(out_dir)
+    if len(times) < frames:
+        return {"error": f"stats.csv has {len(times)} frames, expected {frames}"}
+    times = times[:frames]
+    rest = read_obj_vertices(os.path.join(out_dir, "frame_0000.obj"))
+    if len(rest) != 3 * N * N:
+        return {"error": f"frame 0 has {len(rest) // 3} vertices, expected N*N = {N * N}"}
+    struct, diag = edges(N)
+    s_struct, s_diag = Strain(rest, struct), Strain(rest, diag)
+    window = min(window, frames)
+    maxs, rmss, dmaxs = [], [], []
+    last = None
+    for k in range(frames - window + 1, frames + 1):
+        x = read_obj_vertices(os.path.join(out_dir, f"frame_{k:04d}.obj"))
+        mx, rms = s_struct.frame(x)
+        maxs.append(mx)
+        rmss.append(rms)
+        dmaxs.append(s_diag.frame(x)[0])
+        last = x
+    finite = all(math.isfinite(c) for c in last)
+    steady = times[1:] if len(times) > 1 else times
+
+    def clean(v):
+        return v if v is not None and math.isfinite(v) else None
+
+    return {
+        "frames": frames,
+        "first_frame_s": round(times[0], 5),
+        "time_per_frame_s": mean(steady),
+        "time_per_frame_median_s": median(steady),
+        "strain_max": clean(mean(maxs)),
+        "strain_rms": clean(mean(rmss)),
+        "strain_max_peak": clean(max(maxs)),
+        "diag_strain_max": clean(mean(dmaxs)),
+        "min_height": clean(min(last[1::3])),
+        "exploded": (not finite) or max(abs(c) for c in last) > 100.0,
+    }
+
+
+def parse_value(v):
+    for conv in (int, float):
+        try:
+            return conv(v)
+        except ValueError:
+            pass
+    return v
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("out_dir")
+    p.add_argument("--N", type=int, required=True, help="vertices per side")
+    p.add_argument("--frames", type=int, default=120)
+    p.add_argument("--window", type=int, default=60)
+    p.add_argument("extra", nargs="*", help="key=value copied into the JSON line")
+    a = p.parse_intermixed_args()
+    res = {}
+    for kv in a.extra:
+        k, _, v = kv.partition("=")
+        res[k] = parse_value(v)
+    res["N"] = a.N
+    res.update(metrics(a.out_dir, a.N, a.frames, a.window))
+    print(json.dumps(res), flush=True)
+    return 0 if "error" not in res else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
