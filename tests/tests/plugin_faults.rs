@@ -32,8 +32,8 @@ fn with_kind(kind: &str, params: &str) -> String {
 
 #[test]
 fn incompatible_sdk_layout_is_refused_with_a_summary() {
-    let dir = plugin_dir_with("old-abi", &[fixture("old_abi")]);
-    let reg = registry(&[plugin_dir(), dir.clone()]);
+    let dir = plugin_dir_with("old-abi", &[stretch_lib(), fixture("old_abi")]);
+    let reg = registry(&[dir.clone()]);
     assert_eq!(reg.plugins.len(), 1, "only the stretch plugin loads");
     assert_eq!(reg.refused.len(), 1, "{:?}", reg.refused);
     let cause = &reg.refused[0].cause;
@@ -79,13 +79,21 @@ fn duplicate_kind_names_both_files() {
     let a = plugin_dir_with("dup-a", &[stretch_lib()]);
     let b = plugin_dir_with("dup-b", &[stretch_lib()]);
     let reg = registry(&[a.clone(), b.clone()]);
+    // Every kind of the stretch plugin (stretch, tether) is provided twice; each error names
+    // the kind and both files.
     let dups = reg.duplicate_kinds();
-    assert_eq!(dups.len(), 1);
-    let msg = dups[0].to_string();
-    assert!(
-        msg.contains(a.to_str().unwrap()) && msg.contains(b.to_str().unwrap()),
-        "{msg}"
-    );
+    assert_eq!(dups.len(), reg.plugins[0].info.kinds.len(), "{dups:?}");
+    for kind in ["stretch", "tether"] {
+        let msg = dups
+            .iter()
+            .map(ToString::to_string)
+            .find(|m| m.contains(&format!("kind `{kind}`")))
+            .unwrap_or_else(|| panic!("no duplicate error for {kind}: {dups:?}"));
+        assert!(
+            msg.contains(a.to_str().unwrap()) && msg.contains(b.to_str().unwrap()),
+            "{msg}"
+        );
+    }
     let err = Simulation::build(&scene(CLOTH), &reg)
         .err()
         .expect("ambiguous kind");
