@@ -309,6 +309,16 @@ pub enum PinSelector {
     },
 }
 
+/// A mass map: the selected vertices' mass is multiplied by `scale`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MassMap {
+    /// The vertices, chosen as pins are (indices, named selectors, boxes).
+    pub vertices: Spanned<Vec<PinSelector>>,
+    /// Factor on their mass (dimensionless, positive and finite).
+    pub scale: Spanned<f64>,
+}
+
 /// An object of the scene.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -322,6 +332,10 @@ pub struct ObjectSpec {
     pub density: Option<Spanned<f64>>,
     /// Mass of every vertex (kg).
     pub vertex_mass: Option<Spanned<f64>>,
+    /// Mass maps, applied in order after `mass` / `density` / `vertex_mass`: the mass of the
+    /// selected vertices is multiplied by `scale` (a heavy hem, a light fringe).
+    #[serde(default)]
+    pub mass_maps: Vec<MassMap>,
     /// Initial velocity (m/s).
     #[serde(default)]
     pub velocity: [f64; 3],
@@ -615,6 +629,17 @@ impl Scene {
                     format!("object `{name}`: give only one of mass, density, vertex_mass"),
                 ));
             }
+            for map in &o.mass_maps {
+                let f = *map.scale.get_ref();
+                if !(f.is_finite() && f > 0.0) {
+                    return Err(self.invalid(
+                        map.scale.span(),
+                        format!(
+                            "object `{name}`: a mass map's scale must be a positive finite number, found {f}"
+                        ),
+                    ));
+                }
+            }
             let m = &o.pin_motion;
             let finite = |v: &[f64; 3]| v.iter().all(|x| x.is_finite());
             let keys_ok = m
@@ -845,19 +870,48 @@ impl Scene {
 
     /// Resolves the pins of an object to local vertex indices (sorted, unique).
     pub fn pins(&self, o: &ObjectSpec, geo: &Geometry) -> Result<Vec<u32>, SceneError> {
+        match &o.pins {
+            Some(pins) => self.select(o, pins, geo, "pin"),
+            None => Ok(Vec::new()),
+        }
+    }
+
+    /// The object's per-vertex masses: `mass`, `density` or `vertex_mass`, then its mass maps.
+    pub fn masses(&self, o: &ObjectSpec, geo: &Geometry) -> Result<Vec<f64>, SceneError> {
+        let mut masses = crate::shapes::vertex_masses(
+            geo,
+            o.mass.as_ref().map(|m| *m.get_ref()),
+            o.density.as_ref().map(|m| *m.get_ref()),
+            o.vertex_mass.as_ref().map(|m| *m.get_ref()),
+        );
+        for map in &o.mass_maps {
+            for i in self.select(o, &map.vertices, geo, "mass map")? {
+                masses[i as usize] *= *map.scale.get_ref();
+            }
+        }
+        Ok(masses)
+    }
+
+    /// Resolves vertex selectors of an object to local vertex indices (sorted, unique);
+    /// errors name the object and `what` selects.
+    fn select(
+        &self,
+        o: &ObjectSpec,
+        selectors: &Spanned<Vec<PinSelector>>,
+        geo: &Geometry,
+        what: &str,
+    ) -> Result<Vec<u32>, SceneError> {
         let n = geo.positions.len();
         let name = o.name.get_ref();
         let mut out = Vec::new();
-        let Some(pins) = &o.pins else {
-            return Ok(out);
-        };
+        let pins = selectors;
         for sel in pins.get_ref() {
             match sel {
                 PinSelector::Index(i) => {
                     if *i < 0 || *i as usize >= n {
                         return Err(self.invalid(
                             pins.span(),
-                            format!("object `{name}`: pin index {i} is out of range (the object has {n} vertices)"),
+                            format!("object `{name}`: {what} index {i} is out of range (the object has {n} vertices)"),
                         ));
                     }
                     out.push(*i as u32);
@@ -866,7 +920,7 @@ impl Scene {
                     let found = crate::shapes::select(s, geo).ok_or_else(|| {
                         self.invalid(
                             pins.span(),
-                            format!("object `{name}`: unknown pin selector `{s}` for this shape (grids: corners:row0|rowN|col0|colN, edge:...; ropes: start, end, ends; any: all)"),
+                            format!("object `{name}`: unknown {what} selector `{s}` for this shape (grids: corners:row0|rowN|col0|colN, edge:...; ropes: start, end, ends; any: all)"),
                         )
                     })?;
                     out.extend(found);

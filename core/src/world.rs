@@ -370,12 +370,7 @@ impl Simulation {
             )
             .map_err(|e| scene.invalid(spec.name.span(), format!("object `{name}`: {e}")))?;
             let pins = scene.pins(spec, &geo)?;
-            let masses = crate::shapes::vertex_masses(
-                &geo,
-                spec.mass.as_ref().map(|m| *m.get_ref()),
-                spec.density.as_ref().map(|m| *m.get_ref()),
-                spec.vertex_mass.as_ref().map(|m| *m.get_ref()),
-            );
+            let masses = scene.masses(spec, &geo)?;
             let first = p.x.len() as u32;
             let mut data = ObjectData::from_complex(name, first, &complex);
             data.pin_motion = spec.pin_motion.clone();

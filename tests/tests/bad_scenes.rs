@@ -154,6 +154,55 @@ fn nan_and_negative_mass_are_located() {
 }
 
 #[test]
+fn bad_mass_maps_are_located() {
+    assert_error_at(
+        "mass-map-scale",
+        &replace(
+            "pins = [0, 3]\n",
+            "pins = [0, 3]\nmass_maps = [{ vertices = [5], scale = 0.0 }]\n",
+        ),
+        9,
+        "a mass map's scale must be a positive finite number",
+    );
+    assert_error_at(
+        "mass-map-range",
+        &replace(
+            "pins = [0, 3]\n",
+            "pins = [0, 3]\nmass_maps = [{ vertices = [16], scale = 2.0 }]\n",
+        ),
+        9,
+        "mass map index 16 is out of range",
+    );
+}
+
+#[test]
+fn mass_maps_scale_the_selected_vertices_in_order() {
+    let text = replace(
+        "pins = [0, 3]\n",
+        "pins = [0, 3]\nmass_maps = [{ vertices = [\"edge:rowN\"], scale = 1e-6 }, { vertices = [15, 5], scale = 3.0 }]\n",
+    );
+    let sim = simulation(&text, &[]);
+    let m = &sim.particles.mass;
+    let even = 1.0 / 16.0;
+    for (i, &mi) in m.iter().enumerate() {
+        let expected = match i {
+            12..=14 => even * 1e-6,
+            15 => even * 1e-6 * 3.0,
+            5 => even * 3.0,
+            _ => even,
+        };
+        assert!(
+            (mi - expected).abs() <= 1e-15 * expected,
+            "vertex {i}: {mi} vs {expected}"
+        );
+    }
+    // Pinned vertices stay kinematic; the others' inverse masses follow their masses.
+    let w = &sim.particles.inv_mass;
+    assert_eq!((w[0], w[3]), (0.0, 0.0));
+    assert!((w[12] * m[12] - 1.0).abs() < 1e-12);
+}
+
+#[test]
 fn zero_substeps_is_refused() {
     assert_error_at(
         "zero-substeps",

@@ -33,7 +33,7 @@ fn with_kind(kind: &str, params: &str) -> String {
 #[test]
 fn incompatible_sdk_layout_is_refused_with_a_summary() {
     let dir = plugin_dir_with("old-abi", &[stretch_lib(), fixture("old_abi")]);
-    let reg = registry(&[dir.clone()]);
+    let reg = registry(std::slice::from_ref(&dir));
     assert_eq!(reg.plugins.len(), 1, "only the stretch plugin loads");
     assert_eq!(reg.refused.len(), 1, "{:?}", reg.refused);
     let cause = &reg.refused[0].cause;

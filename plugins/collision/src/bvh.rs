@@ -110,12 +110,12 @@ impl Bvh {
             return bvh;
         }
         let centers: Vec<DVec3> = boxes.iter().map(Aabb::center).collect();
-        bvh.split(boxes, &centers, 0, boxes.len());
+        bvh.split(&centers, 0, boxes.len());
         bvh.refit(boxes);
         bvh
     }
 
-    fn split(&mut self, boxes: &[Aabb], centers: &[DVec3], lo: usize, hi: usize) -> u32 {
+    fn split(&mut self, centers: &[DVec3], lo: usize, hi: usize) -> u32 {
         let index = self.nodes.len() as u32;
         self.nodes.push(Node {
             aabb: Aabb::EMPTY,
@@ -146,8 +146,8 @@ impl Bvh {
                 .total_cmp(&centers[b as usize][axis])
                 .then(a.cmp(&b))
         });
-        let left = self.split(boxes, centers, lo, mid);
-        let right = self.split(boxes, centers, mid, hi);
+        let left = self.split(centers, lo, mid);
+        let right = self.split(centers, mid, hi);
         debug_assert_eq!(left, index + 1);
         let node = &mut self.nodes[index as usize];
         node.first = left;
@@ -241,7 +241,9 @@ impl HashGrid {
         let lo = (b.min / self.cell).floor();
         let hi = (b.max / self.cell).floor();
         let ext = hi - lo;
-        if !(ext.max_element() < Self::MAX_CELLS_PER_AXIS as f64) || !lo.is_finite() {
+        // NaN extents fail the comparison and go to the overflow list too.
+        let spans_few_cells = ext.max_element() < Self::MAX_CELLS_PER_AXIS as f64;
+        if !spans_few_cells || !lo.is_finite() {
             return None;
         }
         Some((

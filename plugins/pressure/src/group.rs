@@ -189,6 +189,11 @@ pub struct Chambers {
     moments: Vec<DVec3>,
     /// The cubic coefficient of each chamber's volume along its directions (m³).
     cubic: Vec<f64>,
+    /// The farthest any vertex of each chamber is from the chamber's centroid in the rest
+    /// pose (m): no step moves a vertex farther than this (see [`Chambers::limit`]).
+    reach: Vec<f64>,
+    /// The longest direction `|uᵢ|` of each chamber in this substep (m²/kg).
+    longest: Vec<f64>,
     /// Particle slices must hold more than this index.
     max_index: Option<u32>,
 }
@@ -265,6 +270,19 @@ impl Chambers {
         out.directions = vec![DVec3::ZERO; out.vertices.len()];
         out.moments = vec![DVec3::ZERO; out.vertices.len()];
         out.cubic = vec![0.0; out.len()];
+        out.longest = vec![0.0; out.len()];
+        out.reach = (0..out.len())
+            .map(|c| {
+                let vertices = &out.vertices[out.vertex_start[c]..out.vertex_start[c + 1]];
+                let at = |&p: &u32| rest_x[p as usize];
+                let centroid =
+                    vertices.iter().map(at).sum::<DVec3>() / vertices.len().max(1) as f64;
+                vertices
+                    .iter()
+                    .map(|p| at(p).distance(centroid))
+                    .fold(0.0, f64::max)
+            })
+            .collect();
         Ok(out)
     }
 
@@ -347,7 +365,9 @@ impl Chambers {
         let u = &mut directions[range.clone()];
         let m = surface.measure(x, Some(u));
         surface.weight(u, w);
+        let longest = u.iter().map(|u| u.length()).fold(0.0, f64::max);
         self.cubic[c] = surface.line_moments(u, &mut moments[range]);
+        self.longest[c] = longest;
         self.directions = directions;
         self.moments = moments;
         m
@@ -362,6 +382,24 @@ impl Chambers {
             &self.moments[range],
             self.cubic[c],
         )
+    }
+
+    /// `t` limited so that a step `uᵢ t` moves no vertex of chamber `c` farther than its rest
+    /// radius (the farthest a vertex is from the centroid at rest).
+    ///
+    /// A chamber collapsed to (near) a point has normals `gᵢ` of the size of its tiny
+    /// triangles, so the step that restores its volume along them is enormous: a balloon
+    /// collapsed within 1e-9 m flung vertices at 400 m/s with a hard volume and to infinity
+    /// with gas. Re-inflating never needs a vertex to move farther than from the centre to its
+    /// rest place, so a longer step is cut there (in the direction the step asked for) and the
+    /// next passes and substeps go on from where it got to.
+    pub fn limit(&self, c: usize, t: f64) -> f64 {
+        let longest = self.longest[c];
+        if longest * t.abs() <= self.reach[c] {
+            t
+        } else {
+            (self.reach[c] / longest).copysign(t)
+        }
     }
 
     /// Moves chamber `c`'s dynamic vertices by `uᵢ t` (positions; or velocities, with `t` a
@@ -531,6 +569,8 @@ impl ConstraintGroup for PressureGroup {
             } else {
                 0.0
             };
+            // The push moves the prediction by h² p uᵢ: limited like every step.
+            let pressure = self.chambers.limit(c, h * h * pressure) / (h * h);
             self.warm[c] = pressure;
             if pressure != 0.0 {
                 // A velocity change w g s with s = h p.
@@ -565,6 +605,7 @@ impl ConstraintGroup for PressureGroup {
             let line = self.chambers.along(c, p.x);
             let dl =
                 solve::volume_step_along(&line, self.goal(c), self.alpha[c], self.lambda[c], h);
+            let dl = self.chambers.limit(c, dl);
             self.chambers.displace(c, p.x, p.inv_mass, dl);
             self.lambda[c] += dl;
             self.applied[c] = self.lambda[c] / (h * h);
@@ -732,7 +773,8 @@ impl ConstraintGroup for GasGroup {
             self.start_amount[c] = n;
             let upwind = (n / v).max(ambient);
             self.leak_volume[c] = h * solve::leak_conductance(m.open_area, air_tightness, upwind);
-            let gauge = self.applied[c];
+            // The push moves the prediction by h² p uᵢ: limited like every step.
+            let gauge = self.chambers.limit(c, h * h * self.applied[c]) / (h * h);
             self.warm[c] = gauge;
             if gauge != 0.0 {
                 self.chambers.displace(c, p.v, p.inv_mass, h * gauge);
@@ -767,13 +809,20 @@ impl ConstraintGroup for GasGroup {
             // in the volume V + hL (see `solve::leaked_amount`).
             let hl = self.leak_volume[c];
             let held = self.start_amount[c] + ambient * hl;
-            let dl = solve::gas_step_along(&line, floor, held, hl, ambient, self.lambda[c], h);
+            let solved = solve::gas_step_along(&line, floor, held, hl, ambient, self.lambda[c], h);
+            let dl = self.chambers.limit(c, solved);
             self.chambers.displace(c, p.x, p.inv_mass, dl);
             self.lambda[c] += dl;
             // The gas left at the volume this step moves the chamber to.
             let moved = line.at(dl).max(floor);
             self.amount[c] = solve::leaked_amount(self.start_amount[c], moved, ambient, hl);
-            self.applied[c] = self.lambda[c] / (h * h);
+            self.applied[c] = if dl == solved {
+                self.lambda[c] / (h * h)
+            } else {
+                // A cut step does not reach the root, where λ/h² is the gas's pressure: the
+                // chamber pushed with no more than the gas's pressure where the step ended.
+                (self.lambda[c] / (h * h)).min(held / (moved + hl) - ambient)
+            };
         }
         Ok(())
     }
