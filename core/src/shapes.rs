@@ -1,8 +1,6 @@
 //! Procedural shapes and mesh import: each returns a [`Geometry`] (rest positions and
 //! simplices in local vertex indices).
 
-use std::path::Path;
-
 use glam::DVec3;
 
 use crate::scene::{Geometry, Plane};
@@ -235,87 +233,7 @@ pub fn tet_box(min: [f64; 3], max: [f64; 3], res: [u32; 3]) -> Geometry {
     }
 }
 
-/// Loads an OBJ file: faces are triangulated, polylines become curve edges, and vertices
-/// used by neither are isolated points.
-pub fn load_obj(path: &Path, scale: f64, translate: [f64; 3]) -> Result<Geometry, String> {
-    let opts = tobj::LoadOptions {
-        triangulate: true,
-        single_index: false,
-        // Lines and points are read below: tobj would otherwise turn `l a b` into degenerate
-        // triangles that repeat a vertex.
-        ignore_points: true,
-        ignore_lines: true,
-    };
-    let (models, _) = tobj::load_obj(path, &opts).map_err(|e| e.to_string())?;
-    let mut geo = Geometry::default();
-    for m in &models {
-        let base = geo.positions.len() as u32;
-        let mesh = &m.mesh;
-        if mesh.positions.len() % 3 != 0 {
-            return Err(format!("object `{}`: malformed vertex list", m.name));
-        }
-        for p in mesh.positions.chunks_exact(3) {
-            let q = [
-                p[0] * scale + translate[0],
-                p[1] * scale + translate[1],
-                p[2] * scale + translate[2],
-            ];
-            if !q.iter().all(|c| c.is_finite()) {
-                return Err(format!("object `{}`: non-finite vertex position", m.name));
-            }
-            geo.positions.push(q);
-        }
-        let n = mesh.positions.len() / 3;
-        let check = |i: u32| -> Result<u32, String> {
-            if (i as usize) < n {
-                Ok(base + i)
-            } else {
-                Err(format!(
-                    "object `{}`: vertex index {} out of range",
-                    m.name,
-                    i + 1
-                ))
-            }
-        };
-        for f in mesh.indices.chunks_exact(3) {
-            geo.triangles
-                .push([check(f[0])?, check(f[1])?, check(f[2])?]);
-        }
-    }
-    if geo.positions.is_empty() {
-        return Err("the file has no vertices".into());
-    }
-    // Lines ("l a b c") are not exposed by tobj; read them directly.
-    let text = std::fs::read_to_string(path).map_err(|e| e.to_string())?;
-    let n = geo.positions.len() as i64;
-    for (lineno, line) in text.lines().enumerate() {
-        let mut it = line.split_whitespace();
-        if it.next() != Some("l") {
-            continue;
-        }
-        let mut prev: Option<u32> = None;
-        for tok in it {
-            let idx: i64 = tok
-                .split('/')
-                .next()
-                .and_then(|s| s.parse().ok())
-                .ok_or_else(|| format!("line {}: bad index `{tok}`", lineno + 1))?;
-            let i = if idx < 0 { n + idx } else { idx - 1 };
-            if i < 0 || i >= n {
-                return Err(format!(
-                    "line {}: vertex index {idx} out of range",
-                    lineno + 1
-                ));
-            }
-            let i = i as u32;
-            if let Some(p) = prev {
-                geo.edges.push([p, i]);
-            }
-            prev = Some(i);
-        }
-    }
-    Ok(geo)
-}
+pub use crate::obj::load_obj;
 
 /// Vertices chosen by a named selector, or `None` if it does not apply to the shape.
 pub fn select(name: &str, geo: &Geometry) -> Option<Vec<u32>> {

@@ -5,9 +5,8 @@
 //!   compliance from silk to leather. The drapes are visibly different: the stiffer the cloth,
 //!   the wider its drape — the RMS horizontal distance of its vertices from the support's
 //!   centre (a Cusick drape test's footprint) increases strictly from silk to leather.
-//! * `scenes/rope_coil.toml`: builds, with its coil's joints under `bend` and `twist` — ignored
-//!   until the OBJ loader reads polylines as curves (see plugins/bend/README.md, "Known
-//!   problems"); the same physics is tested in-process by the bend plugin.
+//! * `scenes/rope_coil.toml`: its coil (an OBJ polyline) loads as a curve with every joint
+//!   under `bend` and `twist`, and still hangs as a coil after the scene's 4 s.
 
 use std::path::{Path, PathBuf};
 
@@ -56,7 +55,6 @@ fn stiffness_lineup_drapes_wider_from_silk_to_leather() {
 }
 
 #[test]
-#[ignore = "blocked: the OBJ loader turns the coil's polyline into a triangle fan (plugins/bend/README.md)"]
 fn rope_coil_stays_coiled() {
     let mut sim = load("rope_coil.toml");
     let chains = sim
