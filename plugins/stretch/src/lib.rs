@@ -99,6 +99,7 @@
 
 pub mod distance;
 pub mod group;
+pub mod hierarchy;
 pub mod tether;
 
 #[cfg(test)]
@@ -109,7 +110,7 @@ pub use group::{StretchGroup, StretchParams};
 
 use nucleus_sdk::KindSpec;
 
-/// The kinds this plugin provides: `stretch` and `tether`.
+/// The kinds this plugin provides: `stretch`, `tether` and `stretch_hierarchy`.
 pub fn kinds() -> Vec<KindSpec> {
     vec![
         KindSpec {
@@ -134,6 +135,19 @@ pub fn kinds() -> Vec<KindSpec> {
             residual_unit: "relative overshoot",
             params: tether::TetherParams::specs(),
             factory: tether::build,
+        },
+        KindSpec {
+            name: "stretch_hierarchy",
+            doc: "Hierarchical position-based dynamics (Mueller 2008): coarser and coarser \
+                  levels of each object's edge graph, each with unilateral edges no longer \
+                  than the rest path between their ends, projected coarsest first with the \
+                  dropped particles interpolated, before `stretch`. Carries a correction \
+                  across the whole cloth in one pass; never resists bending or folding.",
+            default_order: -1,
+            default_importance: 1,
+            residual_unit: "relative overshoot",
+            params: hierarchy::HierarchyParams::specs(),
+            factory: hierarchy::build,
         },
     ]
 }

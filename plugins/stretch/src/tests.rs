@@ -213,10 +213,15 @@ fn bad_parameter(mesh: &Mesh, params: &str) -> PluginError {
 fn kind_describes_itself() {
     let info = nucleus_plugin().info();
     assert_eq!(info.name.as_str(), "stretch");
-    let [kind, tether] = info.kinds.as_slice() else {
-        panic!("two kinds expected: stretch and tether");
+    let [kind, tether, hierarchy] = info.kinds.as_slice() else {
+        panic!("three kinds expected: stretch, tether and stretch_hierarchy");
     };
     assert_eq!(tether.name.as_str(), "tether");
+    assert_eq!(hierarchy.name.as_str(), "stretch_hierarchy");
+    assert_eq!(
+        hierarchy.default_order, -1,
+        "before stretch in every column"
+    );
     assert_eq!(kind.name.as_str(), "stretch");
     assert_eq!(kind.default_order, 0);
     assert_eq!(kind.default_importance, 1);
