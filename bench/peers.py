@@ -5,8 +5,8 @@ Run it through `bench/peers.sh` (which builds the release host and plugins, and 
 peers' Python environment for `--live`); `bench/README.md` explains every option.
 
 * Ours: `target/release/nucleus run scenes/drape.toml` at every N, over a sweep of substeps x
-  iterations, with and without the `tether` kind, on each thread count (RAYON_NUM_THREADS);
-  the metrics are computed from the OBJ frames and stats.csv by `drape_metrics.py`, exactly as
+  iterations, for each scene variant (plain, with the `tether` kind, with `stretch_hierarchy`),
+  on each thread count (RAYON_NUM_THREADS); the metrics are computed from the OBJ frames and stats.csv by `drape_metrics.py`, exactly as
   the peers' common.py does.
 * Theirs: the peers' recorded sweeps (PEERS/raw/*.jsonl, `--recorded`, the default) and/or
   their scripts run live (`--live`), with the peers' own configurations (PEERS/sweep.py CONFIGS).
@@ -36,6 +36,16 @@ import drape_metrics  # noqa: E402
 
 THRESHOLDS = [("strain_max", 0.01), ("strain_max", 0.001), ("strain_rms", 0.01), ("strain_rms", 0.001)]
 TETHER_BLOCK = '\n[[constraints]]\nkind = "tether"\nobjects = ["cloth"]\n'
+# The drape's rest shape is flat, so the hierarchy's coarse edges may be straight lines.
+HIERARCHY_BLOCK = ('\n[[constraints]]\nkind = "stretch_hierarchy"\nobjects = ["cloth"]\n'
+                   'params = { straight_lengths = true }\n')
+# Our variants of the scene: the constraint tables added to scenes/drape.toml.
+VARIANTS = {
+    "plain": "",
+    "tether": TETHER_BLOCK,
+    "hierarchy": HIERARCHY_BLOCK,
+    "hierarchy+tether": HIERARCHY_BLOCK + TETHER_BLOCK,
+}
 
 
 def ints(s):
@@ -58,8 +68,9 @@ def parse_args():
     p.add_argument("--threads", default="1,2", help="our thread counts (RAYON_NUM_THREADS)")
     p.add_argument("--substeps", default="10,20,40,80,160,320", help="our sweep: substeps")
     p.add_argument("--iterations", default="1,2,4", help="our sweep: iterations")
-    p.add_argument("--tether", choices=["both", "on", "off"], default="both",
-                   help="our sweep with the tether kind, without, or both")
+    p.add_argument("--variants", default="plain,tether,hierarchy",
+                   help="our scene variants, comma-separated: " + ", ".join(VARIANTS)
+                        + " (constraint kinds added to scenes/drape.toml)")
     p.add_argument("--no-ours", action="store_true", help="skip our runs (peers only)")
     p.add_argument("--limit-s", type=float, default=60.0,
                    help="skip a run whose predicted wall time exceeds this (s), predicted from the "
@@ -85,29 +96,33 @@ def parse_args():
 # Ours
 
 
-def our_scene(a, tether):
-    if not tether:
+def our_scene(a, variant):
+    if not VARIANTS[variant]:
         return a.scene
     os.makedirs(a.work, exist_ok=True)
-    path = os.path.join(a.work, "drape_tether.toml")
+    path = os.path.join(a.work, f"drape_{variant.replace('+', '_')}.toml")
     with open(a.scene) as f:
         text = f.read()
     with open(path, "w") as f:
-        f.write(text.rstrip("\n") + "\n" + TETHER_BLOCK)
+        f.write(text.rstrip("\n") + "\n" + VARIANTS[variant])
     return path
 
 
-def run_ours(a, N, threads, tether, s, i):
-    out = os.path.join(a.work, "runs", f"nucleus-N{N}-t{threads}-{'tether' if tether else 'plain'}-{s}x{i}")
+def our_name(variant):
+    return "nucleus" + ("" if variant == "plain" else "+" + variant)
+
+
+def run_ours(a, N, threads, variant, s, i):
+    out = os.path.join(a.work, "runs", f"nucleus-N{N}-t{threads}-{variant}-{s}x{i}")
     shutil.rmtree(out, ignore_errors=True)
-    cmd = [a.nucleus, "run", our_scene(a, tether), "--quiet", "--frames", str(a.frames),
+    cmd = [a.nucleus, "run", our_scene(a, variant), "--quiet", "--frames", str(a.frames),
            "--substeps", str(s), "--iterations", str(i), "--out", out,
            "--set", f"objects.0.grid.resolution=[{N},{N}]"]
     env = dict(os.environ, RAYON_NUM_THREADS=str(threads))
     t0 = time.time()
     p = subprocess.run(cmd, capture_output=True, text=True, env=env)
     wall = time.time() - t0
-    rec = {"solver": "nucleus" + ("+tether" if tether else ""), "source": "live", "N": N,
+    rec = {"solver": our_name(variant), "source": "live", "N": N,
            "substeps": s, "iters": i, "threads": threads, "wall_s": round(wall, 2)}
     if p.returncode != 0:
         rec["error"] = (p.stderr.strip().splitlines() or ["exit %d" % p.returncode])[-1][-400:]
@@ -263,14 +278,14 @@ def matched_tables(rows, Ns, our_threads):
                 cells.append(cell(r) if r else f"no ({best_of(rs, metric)})")
             out.append(f"| {name} | {th} | " + " | ".join(cells) + " |")
         out.append("")
-        # Ratios: ours (best of plain/tether) on each thread count against each peer (1 thread).
+        # Ratios: ours (fastest of our variants) on each thread count against each peer (1 thread).
         ours = {th: [r for (n, t), rs in groups.items() if n.startswith("nucleus") and t == th for r in rs]
                 for th in our_threads}
         peers = {k: rs for k, rs in groups.items() if not k[0].startswith("nucleus")}
         if not peers or not any(ours.values()):
             continue
-        out += [f"Ratio of time per frame at matched strain, ours / theirs (N = {N}; ours: the faster of "
-                "with and without tethers; < 1 means Nucleus is faster; *ours only*: the peer never "
+        out += [f"Ratio of time per frame at matched strain, ours / theirs (N = {N}; ours: the fastest of "
+                "our variants; < 1 means Nucleus is faster; *ours only*: the peer never "
                 "reaches that strain in its sweep, *theirs only*: we do not, *neither*: no one does).", "",
                 "| peer | threads | ours on | max <= 1 % | max <= 0.1 % | RMS <= 1 % | RMS <= 0.1 % |",
                 "|---|---:|---:|---:|---:|---:|---:|"]
@@ -379,13 +394,16 @@ def main():
         if not a.no_ours:
             if not os.path.exists(a.nucleus):
                 sys.exit(f"{a.nucleus} is missing: run bench/peers.sh (it builds it), or cargo xtask plugins --release")
-            tethers = {"both": [False, True], "on": [True], "off": [False]}[a.tether]
+            variants = [v.strip() for v in a.variants.split(",") if v.strip()]
+            for v in variants:
+                if v not in VARIANTS:
+                    sys.exit(f"unknown variant {v!r}: choose from {', '.join(VARIANTS)}")
             for N in Ns:
                 for th in threads:
-                    for tether in tethers:
-                        name = f"nucleus{'+tether' if tether else ''} N={N} threads={th}"
+                    for variant in variants:
+                        name = f"{our_name(variant)} N={N} threads={th}"
                         print(name, flush=True)
-                        for r in sweep(lambda s, i: run_ours(a, N, th, tether, s, i),
+                        for r in sweep(lambda s, i: run_ours(a, N, th, variant, s, i),
                                        ints(a.substeps), ints(a.iterations), a.limit_s, a.frames, name):
                             keep(r)
                 loads.append(load())
@@ -426,7 +444,8 @@ def main():
         f"* Command: `{command}`",
         "* Scene: `scenes/drape.toml` (the peers' drape: 1 m cloth, N x N, two corners pinned, 120 frames at "
         "60 fps, no damping), hard stretch on every mesh edge (`nucleus`), plus the `tether` kind "
-        "(`nucleus+tether`); no bending. Peers: "
+        "(`nucleus+tether`) or the `stretch_hierarchy` kind with straight lengths (`nucleus+hierarchy`); "
+        "no bending. Peers: "
         + ("their recorded sweeps (`PEERS/raw/*.jsonl`, 1 thread unless noted; `recorded clean` rows were "
            "re-run with nothing else running)" if a.recorded else "")
         + (" and " if a.recorded and a.live else "")
