@@ -332,6 +332,10 @@ pub struct ObjectSpec {
     pub density: Option<Spanned<f64>>,
     /// Mass of every vertex (kg).
     pub vertex_mass: Option<Spanned<f64>>,
+    /// Density of the solid a closed surface (or tetrahedral mesh) encloses (kg/m³): the
+    /// object's mass is `solid_density × enclosed volume`, lumped to the vertices by surface
+    /// area (or by tet volume). A rigid ball made of a surface gets a ball's mass this way.
+    pub solid_density: Option<Spanned<f64>>,
     /// Mass maps, applied in order after `mass` / `density` / `vertex_mass`: the mass of the
     /// selected vertices is multiplied by `scale` (a heavy hem, a light fringe).
     #[serde(default)]
@@ -609,7 +613,12 @@ impl Scene {
                 return Err(self.invalid(o.name.span(), format!("duplicate object `{name}`")));
             }
             names.push(name);
-            let given = [o.mass.as_ref(), o.density.as_ref(), o.vertex_mass.as_ref()];
+            let given = [
+                o.mass.as_ref(),
+                o.density.as_ref(),
+                o.vertex_mass.as_ref(),
+                o.solid_density.as_ref(),
+            ];
             let mut count = 0;
             for m in given.into_iter().flatten() {
                 count += 1;
@@ -626,7 +635,9 @@ impl Scene {
             if count > 1 {
                 return Err(self.invalid(
                     o.name.span(),
-                    format!("object `{name}`: give only one of mass, density, vertex_mass"),
+                    format!(
+                        "object `{name}`: give only one of mass, density, vertex_mass, solid_density"
+                    ),
                 ));
             }
             for map in &o.mass_maps {
@@ -878,12 +889,28 @@ impl Scene {
 
     /// The object's per-vertex masses: `mass`, `density` or `vertex_mass`, then its mass maps.
     pub fn masses(&self, o: &ObjectSpec, geo: &Geometry) -> Result<Vec<f64>, SceneError> {
-        let mut masses = crate::shapes::vertex_masses(
-            geo,
-            o.mass.as_ref().map(|m| *m.get_ref()),
-            o.density.as_ref().map(|m| *m.get_ref()),
-            o.vertex_mass.as_ref().map(|m| *m.get_ref()),
-        );
+        let mut masses = match &o.solid_density {
+            Some(rho) => {
+                let volume = crate::shapes::enclosed_volume(geo).map_err(|e| {
+                    self.invalid(
+                        rho.span(),
+                        format!("object `{}`: solid_density: {e}", o.name.get_ref()),
+                    )
+                })?;
+                let lumped = crate::shapes::vertex_masses(geo, None, Some(1.0), None);
+                let sum: f64 = lumped.iter().sum();
+                lumped
+                    .iter()
+                    .map(|m| m / sum * rho.get_ref() * volume)
+                    .collect()
+            }
+            None => crate::shapes::vertex_masses(
+                geo,
+                o.mass.as_ref().map(|m| *m.get_ref()),
+                o.density.as_ref().map(|m| *m.get_ref()),
+                o.vertex_mass.as_ref().map(|m| *m.get_ref()),
+            ),
+        };
         for map in &o.mass_maps {
             for i in self.select(o, &map.vertices, geo, "mass map")? {
                 masses[i as usize] *= *map.scale.get_ref();

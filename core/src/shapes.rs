@@ -235,6 +235,54 @@ pub fn tet_box(min: [f64; 3], max: [f64; 3], res: [u32; 3]) -> Geometry {
 
 pub use crate::obj::load_obj;
 
+/// The volume a geometry encloses (m³): the sum of its tetrahedra's volumes, or else the volume
+/// inside its triangles, which must form closed, consistently oriented surfaces (every edge
+/// used once in each direction). Errors say why there is no volume.
+pub fn enclosed_volume(geo: &Geometry) -> Result<f64, String> {
+    let p = |i: u32| DVec3::from_array(geo.positions[i as usize]);
+    if !geo.tets.is_empty() {
+        return Ok(geo
+            .tets
+            .iter()
+            .map(|t| {
+                ((p(t[1]) - p(t[0]))
+                    .cross(p(t[2]) - p(t[0]))
+                    .dot(p(t[3]) - p(t[0])))
+                .abs()
+                    / 6.0
+            })
+            .sum());
+    }
+    if geo.triangles.is_empty() {
+        return Err("the object has no triangles or tetrahedra to enclose a volume".into());
+    }
+    let mut directed: Vec<(u32, u32)> = geo
+        .triangles
+        .iter()
+        .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+        .collect();
+    directed.sort_unstable();
+    if directed.windows(2).any(|w| w[0] == w[1]) {
+        return Err(
+            "the surface is not consistently oriented (an edge is traversed twice the same way)"
+                .into(),
+        );
+    }
+    if directed
+        .iter()
+        .any(|&(a, b)| directed.binary_search(&(b, a)).is_err())
+    {
+        return Err("the surface is open (it has boundary edges)".into());
+    }
+    let origin = p(geo.triangles[0][0]);
+    let volume: f64 = geo
+        .triangles
+        .iter()
+        .map(|t| (p(t[0]) - origin).dot((p(t[1]) - origin).cross(p(t[2]) - origin)) / 6.0)
+        .sum();
+    Ok(volume.abs())
+}
+
 /// Vertices chosen by a named selector, or `None` if it does not apply to the shape.
 pub fn select(name: &str, geo: &Geometry) -> Option<Vec<u32>> {
     let n = geo.positions.len() as u32;
@@ -346,6 +394,44 @@ mod tests {
         assert_eq!(select("corners:rowN", &g), Some(vec![8, 11]));
         assert_eq!(select("edge:col0", &g), Some(vec![0, 4, 8]));
         assert_eq!(select("ends", &g), None);
+    }
+
+    #[test]
+    fn enclosed_volumes_of_a_cube_a_sphere_and_tets_and_no_volume_of_open_or_flipped_surfaces() {
+        // A unit cube, outward.
+        let mut cube = Geometry {
+            positions: (0..8)
+                .map(|k| [(k & 1) as f64, ((k >> 1) & 1) as f64, ((k >> 2) & 1) as f64])
+                .collect(),
+            ..Geometry::default()
+        };
+        let quads = [
+            [0, 2, 3, 1],
+            [4, 5, 7, 6],
+            [0, 1, 5, 4],
+            [2, 6, 7, 3],
+            [0, 4, 6, 2],
+            [1, 3, 7, 5],
+        ];
+        for q in quads {
+            cube.triangles.push([q[0], q[1], q[2]]);
+            cube.triangles.push([q[0], q[2], q[3]]);
+        }
+        assert!((enclosed_volume(&cube).unwrap() - 1.0).abs() < 1e-15);
+        // An icosphere's volume is below the ball's and converges to it.
+        let s = icosphere([0.0; 3], 1.0, 4);
+        let v = enclosed_volume(&s).unwrap();
+        let ball = 4.0 / 3.0 * std::f64::consts::PI;
+        assert!(v < ball && v > 0.99 * ball, "{v}");
+        let t = tet_box([0.0; 3], [1.0, 2.0, 3.0], [2, 1, 3]);
+        assert!((enclosed_volume(&t).unwrap() - 6.0).abs() < 1e-12);
+        let mut open = cube.clone();
+        open.triangles.pop();
+        assert!(enclosed_volume(&open).unwrap_err().contains("open"));
+        let mut flipped = cube.clone();
+        flipped.triangles[0].swap(1, 2);
+        assert!(enclosed_volume(&flipped).unwrap_err().contains("oriented"));
+        assert!(enclosed_volume(&Geometry::default()).is_err());
     }
 
     #[test]

@@ -203,6 +203,50 @@ fn mass_maps_scale_the_selected_vertices_in_order() {
 }
 
 #[test]
+fn solid_density_needs_a_closed_surface() {
+    assert_error_at(
+        "solid-density-open",
+        &replace("mass = 1.0", "solid_density = 500.0"),
+        7,
+        "solid_density: the surface is open",
+    );
+    assert_error_at(
+        "solid-density-twice",
+        &replace("mass = 1.0", "mass = 1.0\nsolid_density = 500.0"),
+        6,
+        "give only one of mass, density, vertex_mass, solid_density",
+    );
+}
+
+#[test]
+fn solid_density_gives_a_closed_surface_the_mass_of_the_solid_it_encloses() {
+    let text = r#"
+[[objects]]
+name = "ball"
+solid_density = 500.0
+[objects.sphere]
+center = [0.0, 0.0, 0.0]
+radius = 0.11
+subdivisions = 3
+"#;
+    let sim = simulation(text, &[]);
+    let total: f64 = sim.particles.mass.iter().sum();
+    // The icosphere's own volume is a little below the ball's (0.9 % at 3 subdivisions).
+    let ball = 500.0 * 4.0 / 3.0 * std::f64::consts::PI * 0.11f64.powi(3);
+    assert!(
+        total < ball && total > 0.98 * ball,
+        "{total} kg vs a ball's {ball} kg"
+    );
+    // Lumped by area: a regular-ish sphere's vertices weigh about the same.
+    let (lo, hi) = sim
+        .particles
+        .mass
+        .iter()
+        .fold((f64::MAX, 0.0f64), |(l, h), &m| (l.min(m), h.max(m)));
+    assert!(hi / lo < 2.0, "{lo} .. {hi}");
+}
+
+#[test]
 fn zero_substeps_is_refused() {
     assert_error_at(
         "zero-substeps",
