@@ -896,6 +896,39 @@ mod tests {
         assert_eq!(c.boundary_edges().len(), 3);
         assert!(!c.is_closed());
         assert!(c.is_manifold());
+        // Valences: vertex 2 joins the triangle's two edges and the curve's first one.
+        let valences: Vec<usize> = (0..6).map(|v| c.valence(0, v)).collect();
+        assert_eq!(valences, [2, 2, 3, 2, 1, 0]);
+        // Children and parents across the dimensions: the triangle's faces are its three
+        // edges, each of which has the triangle as its only parent; the curve's edges have none.
+        let edge = |a: u32, b: u32| {
+            c.simplices(1)
+                .iter()
+                .position(|e| e.vertex_slice() == [a, b])
+                .expect("edge") as u32
+        };
+        let tri = &c.simplices(2)[0];
+        let mut faces: Vec<u32> = tri.faces[..3].to_vec();
+        faces.sort_unstable();
+        let mut expected = vec![edge(0, 1), edge(0, 2), edge(1, 2)];
+        expected.sort_unstable();
+        assert_eq!(faces, expected);
+        // faces[i] is opposite vertices[i]: the face opposite vertex 0 is edge (1, 2).
+        assert_eq!(tri.faces[0], edge(1, 2));
+        for (a, b) in [(0, 1), (0, 2), (1, 2)] {
+            assert_eq!(c.simplices(1)[edge(a, b) as usize].parents, [0]);
+        }
+        for (a, b) in [(2, 3), (3, 4)] {
+            assert!(c.simplices(1)[edge(a, b) as usize].parents.is_empty());
+        }
+        // Vertex 2's parents are those three edges; the point 5 is given (+1) and parentless.
+        let mut at2 = c.simplices(0)[2].parents.clone();
+        at2.sort_unstable();
+        let mut e2 = vec![edge(0, 2), edge(1, 2), edge(2, 3)];
+        e2.sort_unstable();
+        assert_eq!(at2, e2);
+        assert_eq!(c.simplices(0)[5].sign, 1);
+        assert!(c.simplices(0)[5].parents.is_empty());
     }
 
     #[test]

@@ -218,3 +218,32 @@ fn host_run_with_panicking_plugin_exits_nonzero_and_marks_output_failed() {
     let frame = std::fs::read_to_string(out.join("frame_0001.obj")).unwrap();
     assert_eq!(frame.lines().filter(|l| l.starts_with("v ")).count(), 16);
 }
+
+#[test]
+fn plugins_are_found_through_nucleus_plugin_path_in_order() {
+    // Two directories on the variable (separated like PATH), no default directory: the stretch
+    // plugin in the second one is found; an empty entry is ignored.
+    let empty = plugin_dir_with("path-empty", &[]);
+    let with_stretch = plugin_dir_with("path-stretch", &[stretch_lib()]);
+    let joined = std::env::join_paths([empty.clone(), "".into(), with_stretch.clone()]).unwrap();
+    let out = Command::new(host_bin())
+        .args(["plugins", "--no-default-plugins"])
+        .env("NUCLEUS_PLUGIN_PATH", &joined)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("kind `stretch`"), "{stdout}");
+    assert!(stdout.contains(with_stretch.to_str().unwrap()), "{stdout}");
+    // Without the variable and without defaults nothing is found.
+    let none = Command::new(host_bin())
+        .args(["plugins", "--no-default-plugins"])
+        .env_remove("NUCLEUS_PLUGIN_PATH")
+        .output()
+        .unwrap();
+    assert!(!String::from_utf8_lossy(&none.stdout).contains("kind `stretch`"));
+}
