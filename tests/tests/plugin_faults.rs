@@ -2,7 +2,8 @@
 //! refused with a summarised layout error naming its file; a panicking plugin comes back as an
 //! error naming the plugin and the group and the run stops cleanly; a plugin that writes NaN
 //! is named; a non-library file is skipped with a warning; two plugins with the same kind are
-//! an error naming both files; a factory that rejects a parameter names it.
+//! an error naming both files; a factory that rejects a parameter names it; plugins are found
+//! through `NUCLEUS_PLUGIN_PATH`.
 
 use std::process::Command;
 
