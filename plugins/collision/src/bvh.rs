@@ -63,6 +63,13 @@ impl Aabb {
         self.min.cmple(o.max).all() && o.min.cmple(self.max).all()
     }
 
+    /// The squared Euclidean distance between the boxes (0 if they overlap).
+    #[inline]
+    pub fn distance_squared(&self, o: &Self) -> f64 {
+        let gap = (self.min - o.max).max(o.min - self.max).max(DVec3::ZERO);
+        gap.length_squared()
+    }
+
     /// Whether `o` lies inside `self`.
     #[inline]
     pub fn contains(&self, o: &Self) -> bool {

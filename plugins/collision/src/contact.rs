@@ -51,6 +51,25 @@ pub enum PairKind {
     VertexFace = 3,
     /// Two edges.
     EdgeEdge = 4,
+    /// A vertex of an analytic collider's core (a box corner, a sphere's centre, a capsule's
+    /// end) and a triangle (`a` = feature point, `b` = face).
+    FeatureFace = 5,
+    /// A vertex of an analytic collider's core and an edge (`a` = feature point, `b` = edge).
+    FeaturePointEdge = 6,
+    /// An edge of an analytic collider's core (a box edge, a capsule's axis) and an edge
+    /// (`a` = feature edge, `b` = edge).
+    FeatureEdgeEdge = 7,
+}
+
+impl PairKind {
+    /// Whether one side is a sharp feature of an analytic collider.
+    #[inline]
+    pub fn is_feature(self) -> bool {
+        matches!(
+            self,
+            PairKind::FeatureFace | PairKind::FeaturePointEdge | PairKind::FeatureEdgeEdge
+        )
+    }
 }
 
 /// A contact: which pair, the constraint's geometry fixed at the time of impact, and what it

@@ -25,6 +25,31 @@ pub struct Candidate {
 const NONE: u32 = u32::MAX;
 /// Carrier of a frozen vertex that stays where it started the substep.
 const CARRY_STILL: u32 = u32::MAX - 1;
+/// Carriers from this value on (below [`CARRY_STILL`]) are analytic colliders: `CARRY_COLLIDER
+/// + c` carries a frozen vertex with collider `c`'s rigid motion. Below it: local objects.
+const CARRY_COLLIDER: u32 = 1 << 30;
+
+/// A pair of one object that is closer than its thickness `d` in the rest shape, without
+/// sharing a vertex, is kept `REST_FRACTION ×` its rest distance apart instead of `d` (see
+/// [`rest_reach`]).
+pub const REST_FRACTION: f64 = 0.5;
+
+/// The contact distance of a same-object pair of thickness `d` whose squared distance in the
+/// rest shape is `rest_d2`: `d` if the rest shape keeps them that far apart, else
+/// [`REST_FRACTION`] × the rest distance (they start closer than `d`: pushing them to `d`
+/// would fight the object's own shape, and dropping them, as if they were neighbours, would
+/// let them pass through each other however the object deforms), and `None` for a pair that
+/// touches in the rest shape (coincident vertices of an unwelded seam: glued, like
+/// neighbours).
+pub fn rest_reach(d: f64, rest_d2: f64) -> Option<f64> {
+    if rest_d2 >= d * d {
+        Some(d)
+    } else if rest_d2 > 0.0 {
+        Some(REST_FRACTION * rest_d2.sqrt())
+    } else {
+        None
+    }
+}
 
 /// Counters of one frame, for the stats.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -66,9 +91,18 @@ pub struct CollisionGroup {
     edge_obj: Vec<u32>,
     /// Whether each edge is a curve edge (in no triangle).
     edge_curve: Vec<bool>,
+    /// Whether each edge is tested against the colliders' feature points: a curve edge, or
+    /// an edge of an object whose faces do not collide (else its faces cover it).
+    edge_point_tests: Vec<bool>,
     faces: Vec<[u32; 3]>,
     face_obj: Vec<u32>,
     colliders: Vec<Collider>,
+    /// Distance from each collider's core to its surface, plus its thickness (m).
+    collider_radius: Vec<f64>,
+    /// Sharp features of the colliders' cores ([`crate::shapes::Features`]): points and
+    /// edges in their collider's rest frame, with the collider's index.
+    feat_points: Vec<(u32, DVec3)>,
+    feat_edges: Vec<(u32, [DVec3; 2])>,
     /// For each local object whose every vertex is kinematic, three vertices spanning a
     /// frame (its rigid motion carries vertices frozen by the fail-safe).
     rigid_frame: Vec<Option<[u32; 3]>>,
@@ -88,8 +122,19 @@ pub struct CollisionGroup {
     collider_boxes: Vec<Aabb>,
     pose0: Vec<Pose>,
     pose1: Vec<Pose>,
+    /// World positions of the feature points at the start and the end of the substep, and of
+    /// the feature edges' ends (`[a0, b0, a1, b1]`); their swept boxes (not grown).
+    feat_point_tracks: Vec<[DVec3; 2]>,
+    feat_edge_tracks: Vec<[DVec3; 4]>,
+    feat_point_boxes: Vec<Aabb>,
+    feat_edge_boxes: Vec<Aabb>,
+    /// Broad-phase scratch: candidates with their contact distance, before sorting.
+    pending: Vec<(Candidate, f64)>,
     /// Candidate pairs, sorted.
     candidates: Vec<Candidate>,
+    /// Contact distance of each candidate (m): the sum of the two radii, or less for a pair
+    /// of one object that is close in the rest shape ([`rest_reach`]).
+    reach: Vec<f64>,
     /// Contact of each candidate (`NONE` if none).
     contact_of: Vec<u32>,
     /// Contacts of the substep.
@@ -142,6 +187,15 @@ impl CollisionGroup {
         let excluded = params.excluded_pairs(&names)?;
         let colliders = params.colliders()?;
 
+        let mut collider_radius = Vec::with_capacity(colliders.len());
+        let (mut feat_points, mut feat_edges) = (Vec::new(), Vec::new());
+        for (c, col) in colliders.iter().enumerate() {
+            let f = col.shape.features();
+            collider_radius.push(f.radius + col.thickness);
+            feat_points.extend(f.points.into_iter().map(|p| (c as u32, p)));
+            feat_edges.extend(f.edges.into_iter().map(|e| (c as u32, e)));
+        }
+
         let mut g = Self {
             restitution: params.restitution,
             mu_static: params.friction_static,
@@ -155,9 +209,17 @@ impl CollisionGroup {
             edges: Vec::new(),
             edge_obj: Vec::new(),
             edge_curve: Vec::new(),
+            edge_point_tests: Vec::new(),
             faces: Vec::new(),
             face_obj: Vec::new(),
             colliders,
+            collider_radius,
+            feat_point_tracks: vec![[DVec3::ZERO; 2]; feat_points.len()],
+            feat_edge_tracks: vec![[DVec3::ZERO; 4]; feat_edges.len()],
+            feat_point_boxes: vec![Aabb::EMPTY; feat_points.len()],
+            feat_edge_boxes: vec![Aabb::EMPTY; feat_edges.len()],
+            feat_points,
+            feat_edges,
             rigid_frame: Vec::new(),
             active: false,
             vert_boxes: Vec::new(),
@@ -172,7 +234,9 @@ impl CollisionGroup {
             collider_boxes: Vec::new(),
             pose0: Vec::new(),
             pose1: Vec::new(),
+            pending: Vec::new(),
             candidates: Vec::new(),
+            reach: Vec::new(),
             contact_of: Vec::new(),
             contacts: Vec::new(),
             x_pred: vec![DVec3::ZERO; n],
@@ -269,6 +333,7 @@ impl CollisionGroup {
                     g.edges.push(e);
                     g.edge_obj.push(k as u32);
                     g.edge_curve.push(curve);
+                    g.edge_point_tests.push(curve || !s.face);
                 }
             }
             if s.face {
@@ -281,26 +346,30 @@ impl CollisionGroup {
             }
         }
 
-        // Can anything collide? A dynamic object with colliders, with itself, or with another
-        // object that is not excluded.
+        // Can anything collide? A dynamic object with a collider on a common layer (through
+        // its vertices, or its edges and faces against a collider with sharp features), with
+        // itself, or with another object on a common layer that is not excluded.
         let k_count = targets.len();
-        let any_prims = |k: usize| {
-            g.vert_obj.contains(&(k as u32))
-                || g.edge_obj.contains(&(k as u32))
-                || g.face_obj.contains(&(k as u32))
-        };
+        let has = |list: &[u32], k: usize| list.contains(&(k as u32));
+        let any_prims =
+            |k: usize| has(&g.vert_obj, k) || has(&g.edge_obj, k) || has(&g.face_obj, k);
         for &k in &dynamic_objects {
             if !any_prims(k) {
                 continue;
             }
-            if !g.colliders.is_empty() && g.vert_obj.contains(&(k as u32)) {
-                g.active = true;
+            let mask = g.settings[k].layers;
+            let edges_or_faces = has(&g.edge_obj, k) || has(&g.face_obj, k);
+            for (c, col) in g.colliders.iter().enumerate() {
+                let features = g.feat_points.iter().any(|f| f.0 == c as u32);
+                if col.layers & mask != 0 && (has(&g.vert_obj, k) || edges_or_faces && features) {
+                    g.active = true;
+                }
             }
-            if g.settings[k].self_collision {
+            if g.settings[k].self_collision && g.may_self_collide(k as u32) {
                 g.active = true;
             }
             for other in 0..k_count {
-                if other != k && any_prims(other) && !g.is_excluded(k as u32, other as u32) {
+                if other != k && any_prims(other) && g.objects_may_collide(k as u32, other as u32) {
                     g.active = true;
                 }
             }
@@ -344,10 +413,29 @@ impl CollisionGroup {
         g.pose0 = vec![Pose::IDENTITY; g.colliders.len()];
         g.pose1 = vec![Pose::IDENTITY; g.colliders.len()];
         let prims = g.verts.len() + g.edges.len() + g.faces.len();
+        g.pending.reserve(4 * prims);
         g.candidates.reserve(4 * prims);
+        g.reach.reserve(4 * prims);
         g.contact_of.reserve(4 * prims);
         g.contacts.reserve(prims);
         Ok(g)
+    }
+
+    /// Whether object `k` (local) has two primitives that could form a pair: a vertex and a
+    /// face, two edges, two unconnected particles, or one and a curve edge.
+    fn may_self_collide(&self, k: u32) -> bool {
+        let count = |list: &[u32]| list.iter().filter(|&&o| o == k).count();
+        let (verts, edges, faces) = (
+            count(&self.vert_obj),
+            count(&self.edge_obj),
+            count(&self.face_obj),
+        );
+        let isolated = self
+            .isolated
+            .iter()
+            .filter(|&&i| self.vert_obj[i as usize] == k)
+            .count();
+        (faces > 0 && verts > 3) || edges > 1 || isolated > 1 || (isolated > 0 && edges > 0)
     }
 
     fn is_excluded(&self, a: u32, b: u32) -> bool {
@@ -406,14 +494,22 @@ impl CollisionGroup {
         )
     }
 
-    /// Whether a pair of objects (local) may collide at all.
+    /// Whether a pair of objects (local) may collide at all: one object with itself if its
+    /// `self_collision` is on; two objects if they share a layer and are not excluded.
     #[inline]
     fn objects_may_collide(&self, a: u32, b: u32) -> bool {
         if a == b {
             self.settings[a as usize].self_collision
         } else {
-            !self.is_excluded(a, b)
+            self.settings[a as usize].layers & self.settings[b as usize].layers != 0
+                && !self.is_excluded(a, b)
         }
+    }
+
+    /// Whether an object (local) and a collider share a layer.
+    #[inline]
+    fn collides_with_collider(&self, object: u32, collider: u32) -> bool {
+        self.settings[object as usize].layers & self.colliders[collider as usize].layers != 0
     }
 
     /// Whether a candidate involves only kinematic particles.
@@ -422,7 +518,8 @@ impl CollisionGroup {
     }
 
     /// Refits the trees to the swept boxes over `[x0, x]` (grown by a margin) and collects the
-    /// candidate pairs, sorted; remaps the existing contacts onto them.
+    /// candidate pairs with their contact distances, sorted; remaps the existing contacts onto
+    /// them.
     fn broad_phase(&mut self, x0: &[DVec3], x: &[DVec3], inv_mass: &[f64]) {
         self.stats.broad_phases += 1;
         for i in 0..self.verts.len() {
@@ -439,16 +536,16 @@ impl CollisionGroup {
         }
         self.edge_bvh.refit(&self.edge_boxes);
         self.face_bvh.refit(&self.face_boxes);
-        self.candidates.clear();
         let mut stack = std::mem::take(&mut self.stack);
-        let mut candidates = std::mem::take(&mut self.candidates);
+        let mut pending = std::mem::take(&mut self.pending);
+        pending.clear();
+        let rest = &self.rest;
 
         // Vertex–face.
         if !self.faces.is_empty() {
             for i in 0..self.verts.len() {
                 let p = self.verts[i];
                 let po = self.vert_obj[i];
-                let d_p = self.radius(po);
                 self.face_bvh
                     .query(&self.vert_boxes[i], &self.face_boxes, &mut stack, |f| {
                         let tri = self.faces[f as usize];
@@ -459,23 +556,24 @@ impl CollisionGroup {
                         if Self::all_kinematic(&[p, tri[0], tri[1], tri[2]], inv_mass) {
                             return;
                         }
+                        let mut d = self.radius(po) + self.radius(fo);
                         if po == fo {
-                            let r = &self.rest;
-                            let (_, d2) = distance::point_triangle_closest(
-                                r[p as usize],
-                                r[tri[0] as usize],
-                                r[tri[1] as usize],
-                                r[tri[2] as usize],
-                            );
-                            let d = d_p + self.radius(fo);
-                            if d2 < d * d {
-                                return;
+                            let [a, b, c] = tri.map(|k| rest[k as usize]);
+                            let (_, d2) =
+                                distance::point_triangle_closest(rest[p as usize], a, b, c);
+                            match rest_reach(d, d2) {
+                                Some(r) => d = r,
+                                None => return,
                             }
                         }
-                        candidates.push(Candidate {
-                            kind: PairKind::VertexFace,
-                            pair: [i as u32, f],
-                        });
+                        let pair = [i as u32, f];
+                        pending.push((
+                            Candidate {
+                                kind: PairKind::VertexFace,
+                                pair,
+                            },
+                            d,
+                        ));
                     });
             }
         }
@@ -496,23 +594,27 @@ impl CollisionGroup {
                     if Self::all_kinematic(&[e[0], e[1], f[0], f[1]], inv_mass) {
                         return;
                     }
+                    let mut d = self.radius(eo) + self.radius(fo);
                     if eo == fo {
-                        let r = &self.rest;
                         let (_, _, d2) = distance::segment_segment_closest(
-                            r[e[0] as usize],
-                            r[e[1] as usize],
-                            r[f[0] as usize],
-                            r[f[1] as usize],
+                            rest[e[0] as usize],
+                            rest[e[1] as usize],
+                            rest[f[0] as usize],
+                            rest[f[1] as usize],
                         );
-                        let d = self.radius(eo) + self.radius(fo);
-                        if d2 < d * d {
-                            return;
+                        match rest_reach(d, d2) {
+                            Some(r) => d = r,
+                            None => return,
                         }
                     }
-                    candidates.push(Candidate {
-                        kind: PairKind::EdgeEdge,
-                        pair: [i as u32, j],
-                    });
+                    let pair = [i as u32, j];
+                    pending.push((
+                        Candidate {
+                            kind: PairKind::EdgeEdge,
+                            pair,
+                        },
+                        d,
+                    ));
                 });
         }
         // Particle–curve edge.
@@ -531,10 +633,26 @@ impl CollisionGroup {
                     {
                         return;
                     }
-                    candidates.push(Candidate {
-                        kind: PairKind::VertexEdge,
-                        pair: [k, j],
-                    });
+                    let mut d = self.radius(po) + self.radius(fo);
+                    if po == fo {
+                        let (_, d2) = distance::point_segment_closest(
+                            rest[p as usize],
+                            rest[f[0] as usize],
+                            rest[f[1] as usize],
+                        );
+                        match rest_reach(d, d2) {
+                            Some(r) => d = r,
+                            None => return,
+                        }
+                    }
+                    let pair = [k, j];
+                    pending.push((
+                        Candidate {
+                            kind: PairKind::VertexEdge,
+                            pair,
+                        },
+                        d,
+                    ));
                 });
         }
         // Particle–particle, through the hash grid.
@@ -551,33 +669,133 @@ impl CollisionGroup {
                 if !self.objects_may_collide(po, qo) || Self::all_kinematic(&[p, q], inv_mass) {
                     continue;
                 }
+                let mut d = self.radius(po) + self.radius(qo);
                 if po == qo {
-                    let d = self.radius(po) + self.radius(qo);
-                    if self.rest[p as usize].distance_squared(self.rest[q as usize]) < d * d {
-                        continue;
+                    let d2 = rest[p as usize].distance_squared(rest[q as usize]);
+                    match rest_reach(d, d2) {
+                        Some(r) => d = r,
+                        None => continue,
                     }
                 }
-                candidates.push(Candidate {
-                    kind: PairKind::VertexVertex,
-                    pair: [i, j],
-                });
+                let pair = [i, j];
+                pending.push((
+                    Candidate {
+                        kind: PairKind::VertexVertex,
+                        pair,
+                    },
+                    d,
+                ));
             }
             self.iso_pairs = iso_pairs;
         }
         // Vertex–collider.
         for c in 0..self.colliders.len() {
             let cb = self.collider_boxes[c];
+            let rc = self.colliders[c].thickness;
             for i in 0..self.verts.len() {
-                if inv_mass[self.verts[i] as usize] > 0.0 && self.vert_boxes[i].overlaps(&cb) {
-                    candidates.push(Candidate {
-                        kind: PairKind::Collider,
-                        pair: [c as u32, i as u32],
-                    });
+                let vo = self.vert_obj[i];
+                if inv_mass[self.verts[i] as usize] > 0.0
+                    && self.vert_boxes[i].overlaps(&cb)
+                    && self.collides_with_collider(vo, c as u32)
+                {
+                    let pair = [c as u32, i as u32];
+                    let d = self.radius(vo) + rc;
+                    pending.push((
+                        Candidate {
+                            kind: PairKind::Collider,
+                            pair,
+                        },
+                        d,
+                    ));
                 }
             }
         }
-        candidates.sort_unstable();
-        self.candidates = candidates;
+        // The colliders' feature points against faces and edges, feature edges against
+        // edges. The trees' boxes are grown by each primitive's radius and margin; the query
+        // box by the collider's; then the Euclidean gap between the boxes must be within
+        // the collider's radius and margin (a sphere's centre meets only the faces near its
+        // surface, not every face in its bounding cube).
+        for f in 0..self.feat_points.len() {
+            let c = self.feat_points[f].0;
+            let rc = self.collider_radius[c as usize];
+            let reach = rc + margin(rc);
+            let tight = self.feat_point_boxes[f];
+            let query = tight.grow(reach);
+            self.face_bvh
+                .query(&query, &self.face_boxes, &mut stack, |j| {
+                    let fo = self.face_obj[j as usize];
+                    let tri = self.faces[j as usize];
+                    if !self.collides_with_collider(fo, c)
+                        || Self::all_kinematic(&tri, inv_mass)
+                        || tight.distance_squared(&self.face_boxes[j as usize]) > reach * reach
+                    {
+                        return;
+                    }
+                    let pair = [f as u32, j];
+                    let d = rc + self.radius(fo);
+                    pending.push((
+                        Candidate {
+                            kind: PairKind::FeatureFace,
+                            pair,
+                        },
+                        d,
+                    ));
+                });
+            self.edge_bvh
+                .query(&query, &self.edge_boxes, &mut stack, |j| {
+                    let eo = self.edge_obj[j as usize];
+                    if !self.edge_point_tests[j as usize]
+                        || !self.collides_with_collider(eo, c)
+                        || Self::all_kinematic(&self.edges[j as usize], inv_mass)
+                        || tight.distance_squared(&self.edge_boxes[j as usize]) > reach * reach
+                    {
+                        return;
+                    }
+                    let pair = [f as u32, j];
+                    let d = rc + self.radius(eo);
+                    pending.push((
+                        Candidate {
+                            kind: PairKind::FeaturePointEdge,
+                            pair,
+                        },
+                        d,
+                    ));
+                });
+        }
+        for f in 0..self.feat_edges.len() {
+            let c = self.feat_edges[f].0;
+            let rc = self.collider_radius[c as usize];
+            let reach = rc + margin(rc);
+            let tight = self.feat_edge_boxes[f];
+            let query = tight.grow(reach);
+            self.edge_bvh
+                .query(&query, &self.edge_boxes, &mut stack, |j| {
+                    let eo = self.edge_obj[j as usize];
+                    if !self.collides_with_collider(eo, c)
+                        || Self::all_kinematic(&self.edges[j as usize], inv_mass)
+                        || tight.distance_squared(&self.edge_boxes[j as usize]) > reach * reach
+                    {
+                        return;
+                    }
+                    let pair = [f as u32, j];
+                    let d = rc + self.radius(eo);
+                    pending.push((
+                        Candidate {
+                            kind: PairKind::FeatureEdgeEdge,
+                            pair,
+                        },
+                        d,
+                    ));
+                });
+        }
+        pending.sort_unstable_by_key(|p| p.0);
+        self.candidates.clear();
+        self.reach.clear();
+        for &(c, d) in &pending {
+            self.candidates.push(c);
+            self.reach.push(d);
+        }
+        self.pending = pending;
         self.stack = stack;
         self.stats.candidates = self.stats.candidates.max(self.candidates.len());
 
@@ -634,11 +852,13 @@ impl CollisionGroup {
     // Narrow phase
     // ------------------------------------------------------------------------------------
 
-    /// The contact of a candidate if the pair comes within `thickness_scale ×` its distance
-    /// over `[x0, x]` (`thickness_scale = 0`: the pair crosses).
+    /// The contact of a candidate if the pair comes within `thickness_scale × reach` (its
+    /// contact distance) over `[x0, x]` (`thickness_scale = 0`: the pair crosses; for a
+    /// collider's feature, it crosses the collider's core).
     fn detect(
         &self,
         cand: Candidate,
+        reach: f64,
         x0: &[DVec3],
         x: &[DVec3],
         thickness_scale: f64,
@@ -647,39 +867,28 @@ impl CollisionGroup {
             x0: x0[i as usize],
             x1: x[i as usize],
         };
+        let d = thickness_scale * reach;
         let [a, b] = cand.pair;
         match cand.kind {
             PairKind::VertexFace => {
-                let (v, f) = (a as usize, b as usize);
-                let p = self.verts[v];
-                let t = self.faces[f];
-                let d = thickness_scale
-                    * (self.radius(self.vert_obj[v]) + self.radius(self.face_obj[f]));
+                let p = self.verts[a as usize];
+                let t = self.faces[b as usize];
                 let ids = [p, t[0], t[1], t[2]];
                 pairs::vertex_face(cand.pair, ids, &ids.map(track), d)
             }
             PairKind::EdgeEdge => {
                 let (e, f) = (self.edges[a as usize], self.edges[b as usize]);
-                let d = thickness_scale
-                    * (self.radius(self.edge_obj[a as usize])
-                        + self.radius(self.edge_obj[b as usize]));
                 let ids = [e[0], e[1], f[0], f[1]];
                 pairs::edge_edge(cand.pair, ids, &ids.map(track), d)
             }
             PairKind::VertexEdge => {
                 let p = self.verts[a as usize];
                 let f = self.edges[b as usize];
-                let d = thickness_scale
-                    * (self.radius(self.vert_obj[a as usize])
-                        + self.radius(self.edge_obj[b as usize]));
                 let ids = [p, p, f[0], f[1]];
                 pairs::vertex_edge(cand.pair, ids, &ids.map(track), d)
             }
             PairKind::VertexVertex => {
                 let (p, q) = (self.verts[a as usize], self.verts[b as usize]);
-                let d = thickness_scale
-                    * (self.radius(self.vert_obj[a as usize])
-                        + self.radius(self.vert_obj[b as usize]));
                 let ids = [p, q, p, p];
                 pairs::vertex_vertex(cand.pair, ids, &ids.map(track), d)
             }
@@ -687,11 +896,10 @@ impl CollisionGroup {
                 let (c, v) = (a as usize, b as usize);
                 let p = self.verts[v] as usize;
                 let col = &self.colliders[c];
-                let r = thickness_scale * (self.radius(self.vert_obj[v]) + col.thickness);
                 let (pose0, pose1) = (self.pose0[c], self.pose1[c]);
                 let q0 = pose0.inverse_apply(x0[p]);
                 let q1 = pose1.inverse_apply(x[p]);
-                let t = first_contact(&col.shape, q0, q1, r)?;
+                let t = first_contact(&col.shape, q0, q1, d)?;
                 let qt = q0.lerp(q1, t);
                 let (phi, n_local) = col.shape.signed_distance(qt);
                 let surface = qt - phi * n_local;
@@ -703,11 +911,58 @@ impl CollisionGroup {
                     ids: [p as u32; 4],
                     w: [1.0, 0.0, 0.0, 0.0],
                     n,
-                    offset: n.dot(s1) + r,
+                    offset: n.dot(s1) + d,
                     collider_disp: s1 - pose0.apply(surface),
                     dn: 0.0,
                 })
             }
+            // A collider's feature is a kinematic point or segment that is no particle: the
+            // query runs on its world track over the substep like a mesh collider's vertex,
+            // then its slots are folded into the contact's offset.
+            PairKind::FeatureFace => {
+                let [p0, p1] = self.feat_point_tracks[a as usize];
+                let t = self.faces[b as usize];
+                let ids = [t[0], t[0], t[1], t[2]];
+                let mut tr = ids.map(track);
+                tr[0] = Track { x0: p0, x1: p1 };
+                let mut c = pairs::vertex_face(cand.pair, ids, &tr, d)?;
+                c.kind = PairKind::FeatureFace;
+                pairs::fold_kinematic(&mut c, &[0], &tr);
+                Some(c)
+            }
+            PairKind::FeaturePointEdge => {
+                let [p0, p1] = self.feat_point_tracks[a as usize];
+                let e = self.edges[b as usize];
+                let ids = [e[0], e[0], e[0], e[1]];
+                let mut tr = ids.map(track);
+                tr[0] = Track { x0: p0, x1: p1 };
+                tr[1] = tr[0];
+                let mut c = pairs::vertex_edge(cand.pair, ids, &tr, d)?;
+                c.kind = PairKind::FeaturePointEdge;
+                pairs::fold_kinematic(&mut c, &[0, 1], &tr);
+                Some(c)
+            }
+            PairKind::FeatureEdgeEdge => {
+                let [a0, b0, a1, b1] = self.feat_edge_tracks[a as usize];
+                let e = self.edges[b as usize];
+                let ids = [e[0], e[0], e[0], e[1]];
+                let mut tr = ids.map(track);
+                tr[0] = Track { x0: a0, x1: a1 };
+                tr[1] = Track { x0: b0, x1: b1 };
+                let mut c = pairs::edge_edge(cand.pair, ids, &tr, d)?;
+                c.kind = PairKind::FeatureEdgeEdge;
+                pairs::fold_kinematic(&mut c, &[0, 1], &tr);
+                Some(c)
+            }
+        }
+    }
+
+    /// The collider of a feature candidate.
+    #[inline]
+    fn feature_collider(&self, cand: Candidate) -> u32 {
+        match cand.kind {
+            PairKind::FeatureEdgeEdge => self.feat_edges[cand.pair[0] as usize].0,
+            _ => self.feat_points[cand.pair[0] as usize].0,
         }
     }
 
@@ -721,6 +976,17 @@ impl CollisionGroup {
             PairKind::VertexEdge => self.vert_box(a, x0, x).overlaps(&self.edge_box(b, x0, x)),
             PairKind::VertexVertex => self.vert_box(a, x0, x).overlaps(&self.vert_box(b, x0, x)),
             PairKind::Collider => true,
+            PairKind::FeatureFace | PairKind::FeaturePointEdge | PairKind::FeatureEdgeEdge => {
+                let r = self.collider_radius[self.feature_collider(cand) as usize];
+                let (feature, other) = match cand.kind {
+                    PairKind::FeatureFace => (self.feat_point_boxes[a], self.face_box(b, x0, x)),
+                    PairKind::FeaturePointEdge => {
+                        (self.feat_point_boxes[a], self.edge_box(b, x0, x))
+                    }
+                    _ => (self.feat_edge_boxes[a], self.edge_box(b, x0, x)),
+                };
+                feature.distance_squared(&other) <= r * r
+            }
         }
     }
 
@@ -735,7 +1001,7 @@ impl CollisionGroup {
             if !self.boxes_overlap(cand, x0, x) {
                 continue;
             }
-            let Some(mut contact) = self.detect(cand, x0, x, 1.0) else {
+            let Some(mut contact) = self.detect(cand, self.reach[k], x0, x, 1.0) else {
                 continue;
             };
             let slot = self.contact_of[k];
@@ -776,10 +1042,14 @@ impl CollisionGroup {
     }
 
     /// Where the fail-safe puts a frozen particle: its start, carried by the rigid motion of
-    /// its carrier (a fully kinematic object) over the substep.
+    /// its carrier (a fully kinematic object, or an analytic collider) over the substep.
     fn carried(&self, carrier: u32, p: usize, x0: &[DVec3], x: &[DVec3]) -> DVec3 {
         if carrier == CARRY_STILL {
             return x0[p];
+        }
+        if carrier >= CARRY_COLLIDER {
+            let c = (carrier - CARRY_COLLIDER) as usize;
+            return self.pose1[c].apply(self.pose0[c].inverse_apply(x0[p]));
         }
         let Some([a, b, c]) = self.rigid_frame[carrier as usize] else {
             return x0[p];
@@ -794,9 +1064,10 @@ impl CollisionGroup {
     }
 
     /// The fail-safe: while some pair still *crosses* over `[x0, x]` (a continuous test with
-    /// zero thickness), freeze its dynamic particles — put them back where they started the
-    /// substep, carried by the rigid motion of a kinematic object they hit. The start of the
-    /// substep is crossing-free, so every round either resolves the remaining crossings or
+    /// zero thickness; for an analytic collider's feature, reaching the collider's core),
+    /// freeze its dynamic particles — put them back where they started the substep, carried
+    /// by the rigid motion of a kinematic object or analytic collider they hit. The start of
+    /// the substep is crossing-free, so every round either resolves the remaining crossings or
     /// freezes a new particle: at most one round per particle. Returns the pairs left crossing.
     fn fail_safe(&mut self, x0: &[DVec3], x: &mut [DVec3], inv_mass: &[f64]) -> usize {
         loop {
@@ -810,20 +1081,28 @@ impl CollisionGroup {
                 if cand.kind == PairKind::Collider || !self.boxes_overlap(cand, x0, x) {
                     continue;
                 }
-                let Some(c) = self.detect(cand, x0, x, 0.0) else {
+                let Some(c) = self.detect(cand, self.reach[k], x0, x, 0.0) else {
                     continue;
                 };
                 crossing += 1;
-                let carrier = c
-                    .ids
-                    .iter()
-                    .zip(&c.w)
-                    .find(|(&i, &w)| w != 0.0 && inv_mass[i as usize] == 0.0)
-                    .map(|(&i, _)| self.object_of_particle(i))
-                    .unwrap_or(CARRY_STILL);
+                let carrier = if cand.kind.is_feature() {
+                    CARRY_COLLIDER + self.feature_collider(cand)
+                } else {
+                    c.ids
+                        .iter()
+                        .zip(&c.w)
+                        .find(|(&i, &w)| w != 0.0 && inv_mass[i as usize] == 0.0)
+                        .map(|(&i, _)| self.object_of_particle(i))
+                        .unwrap_or(CARRY_STILL)
+                };
+                // Every particle of the two primitives is frozen (a vertex of a face with a zero
+                // barycentric weight included); only the unused slots of the particle pairs
+                // (weight 0) are skipped.
+                let whole = matches!(c.kind, PairKind::VertexFace | PairKind::EdgeEdge)
+                    || c.kind.is_feature();
                 for (&i, &w) in c.ids.iter().zip(&c.w) {
                     let i = i as usize;
-                    if w == 0.0 && c.kind != PairKind::VertexFace && c.kind != PairKind::EdgeEdge {
+                    if w == 0.0 && !whole {
                         continue;
                     }
                     if inv_mass[i] > 0.0 && self.carrier[i] == NONE {
@@ -868,24 +1147,51 @@ impl CollisionGroup {
         Ok(())
     }
 
-    /// Deepest thickness violation over the contacts and the colliders at positions `x` (m).
+    /// Deepest thickness violation (m) at positions `x`, with the colliders at `poses`: over
+    /// the contacts between particles, and over every candidate pair with a collider (its
+    /// vertices by the exact signed distance, its features by their distance to the faces and
+    /// edges near them).
     fn penetration(&self, x: &[DVec3], poses: &[Pose]) -> f64 {
         let mut worst: f64 = 0.0;
         for c in &self.contacts {
-            if c.kind != PairKind::Collider {
+            if c.kind != PairKind::Collider && !c.kind.is_feature() {
                 let (_, d2) = self.current_distance(c, x);
                 worst = worst.max(c.offset - d2.sqrt());
             }
         }
-        for cand in &self.candidates {
-            if cand.kind == PairKind::Collider {
-                let (c, v) = (cand.pair[0] as usize, cand.pair[1] as usize);
-                let p = self.verts[v] as usize;
-                let col = &self.colliders[c];
-                let r = self.radius(self.vert_obj[v]) + col.thickness;
-                let (phi, _) = col.shape.signed_distance(poses[c].inverse_apply(x[p]));
-                worst = worst.max(r - phi);
-            }
+        let at = |i: u32| x[i as usize];
+        for (k, cand) in self.candidates.iter().enumerate() {
+            let (a, b) = (cand.pair[0] as usize, cand.pair[1] as usize);
+            let d2 = match cand.kind {
+                PairKind::Collider => {
+                    let p = self.verts[b] as usize;
+                    let col = &self.colliders[a];
+                    let (phi, _) = col.shape.signed_distance(poses[a].inverse_apply(x[p]));
+                    worst = worst.max(self.reach[k] - phi);
+                    continue;
+                }
+                PairKind::FeatureFace => {
+                    let (c, q) = self.feat_points[a];
+                    let t = self.faces[b];
+                    let p = poses[c as usize].apply(q);
+                    distance::point_triangle_closest(p, at(t[0]), at(t[1]), at(t[2])).1
+                }
+                PairKind::FeaturePointEdge => {
+                    let (c, q) = self.feat_points[a];
+                    let e = self.edges[b];
+                    let p = poses[c as usize].apply(q);
+                    distance::point_segment_closest(p, at(e[0]), at(e[1])).1
+                }
+                PairKind::FeatureEdgeEdge => {
+                    let (c, [q0, q1]) = self.feat_edges[a];
+                    let e = self.edges[b];
+                    let pose = poses[c as usize];
+                    let (p0, p1) = (pose.apply(q0), pose.apply(q1));
+                    distance::segment_segment_closest(p0, p1, at(e[0]), at(e[1])).2
+                }
+                _ => continue,
+            };
+            worst = worst.max(self.reach[k] - d2.sqrt());
         }
         worst
     }
@@ -898,7 +1204,7 @@ impl CollisionGroup {
             PairKind::EdgeEdge => distance::segment_segment_closest(g(0), g(1), g(2), g(3)).2,
             PairKind::VertexEdge => distance::point_segment_closest(g(0), g(2), g(3)).1,
             PairKind::VertexVertex => g(0).distance_squared(g(1)),
-            PairKind::Collider => f64::INFINITY,
+            _ => f64::INFINITY,
         };
         ((), d2)
     }
@@ -962,6 +1268,20 @@ impl ConstraintGroup for CollisionGroup {
         for (c, col) in self.colliders.iter().enumerate() {
             self.pose0[c] = col.motion.pose(time);
             self.pose1[c] = col.motion.pose(time + h);
+        }
+        for (f, &(c, q)) in self.feat_points.iter().enumerate() {
+            let ends = [
+                self.pose0[c as usize].apply(q),
+                self.pose1[c as usize].apply(q),
+            ];
+            self.feat_point_tracks[f] = ends;
+            self.feat_point_boxes[f] = Aabb::of_points(&ends, 0.0);
+        }
+        for (f, &(c, [a, b])) in self.feat_edges.iter().enumerate() {
+            let (p0, p1) = (self.pose0[c as usize], self.pose1[c as usize]);
+            let ends = [p0.apply(a), p0.apply(b), p1.apply(a), p1.apply(b)];
+            self.feat_edge_tracks[f] = ends;
+            self.feat_edge_boxes[f] = Aabb::of_points(&ends, 0.0);
         }
         self.collider_bounds();
         for &i in &self.frozen_list {

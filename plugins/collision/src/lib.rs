@@ -25,14 +25,32 @@
 //!   vertex–face or an edge–edge pair;
 //! * for unconnected particles, which have no edge: particle–particle (a hash grid) and
 //!   particle–curve edge;
-//! * vertex–collider, for each analytic collider (plane, sphere, box, capsule). Colliders
-//!   touch vertices only: an edge or a face may cut the corner of a box, or wrap a capsule
-//!   thinner than its edge length; model a thin bar as a kinematic one-segment rope whose
-//!   thickness is the bar's radius (its edge cylinder then meets edges and faces too).
+//! * each analytic collider (plane, sphere, box, capsule) against vertices, edges and faces
+//!   alike. A collider is the set of points within a radius of a convex *core* — a sphere's
+//!   centre, a capsule's axis, a box itself (radius 0); the plane is a half-space — so the
+//!   distance from a triangle (or a segment) to it is the distance to the core minus the
+//!   radius, and the distance between two convex polytopes is attained at a vertex of one
+//!   against the other or at an edge of each. Hence three tests, together exact:
+//!   **vertex–collider** (every vertex against the collider's exact signed distance,
+//!   [`shapes::first_contact`]), **feature point–face** (every vertex of the core — box
+//!   corners, capsule ends, the sphere's centre — against every face, and against curve
+//!   edges) and **feature edge–edge** (every edge of the core — box edges, the capsule's axis
+//!   — against every edge), the last two with the ordinary point–triangle and edge–edge
+//!   tests of [`ccd`], the feature moving rigidly with its collider
+//!   ([`shapes::Shape::features`]). A thin capsule or a box edge sweeping through the middle
+//!   of a coarse triangle is stopped by the triangle, not only by its vertices. The plane
+//!   needs no feature: a half-space's distance to a triangle is attained at a vertex.
 //!
-//! Never tested: pairs sharing a vertex; pairs of one object when its `self_collision` is off,
-//! or whose distance in the rest shape is already below `d` (neighbours that start in
-//! contact); excluded object pairs (`exclude`); pairs whose particles are all kinematic.
+//! Never tested: pairs sharing a vertex (neighbours); pairs of one object when its
+//! `self_collision` is off; pairs of two objects, or of an object and a collider, whose
+//! collision `layers` (bitmasks) share no bit; excluded object pairs (`exclude`); pairs whose
+//! particles are all kinematic; a primitive whose flag (`vertex`, `edge`, `face`) is off.
+//! A pair of one object that does not share a vertex but is closer than `d` in the rest shape
+//! (a fine mesh whose non-adjacent vertices are closer than twice its thickness, or the
+//! front and back of a garment modelled close together) is **kept**, at a reduced distance:
+//! half its rest distance ([`group::rest_reach`]) — pushing it to `d` would fight the
+//! object's own shape, and dropping it would let it pass through itself once folded. Only a
+//! pair that touches in the rest shape (an unwelded seam) is dropped, like neighbours.
 //! A group in which no pair can ever collide reports no constraint, so the core never
 //! schedules it: a scene without colliding objects pays nothing.
 //!
@@ -49,12 +67,19 @@
 //!
 //! ## Narrow phase ([`ccd`], [`distance`])
 //!
-//! Vertex–face and edge–edge: the conservative continuous tests of [`ccd`] (no false
-//! negative), giving the earliest `t ∈ [0, 1]` at which the pair comes within `d`.
-//! Particle–particle: a quadratic in closed form ([`pairs::point_point_toi`]).
-//! Vertex–collider: the same question against the collider's exact signed distance, in the
-//! collider's frame ([`shapes::first_contact`]). The closest points at `t` fix the contact's
-//! weights and normal for the rest of the substep ([`pairs`]).
+//! Vertex–face and edge–edge (and the colliders' features, on their rigid tracks): the
+//! conservative continuous tests of [`ccd`] (no false negative), giving the earliest
+//! `t ∈ [0, 1]` at which the pair comes within `d` — for every pair that moves farther over
+//! the substep than it is apart, the only pairs that can pass through each other. A pair
+//! that moves less than its start distance cannot cross: its end state decides (a contact at
+//! `t = 1` if it ends within `d`), which spares the bisection the grazing and resting
+//! contacts ([`pairs`], the prefilter). Particle–particle: a quadratic in closed form
+//! ([`pairs::point_point_toi`]). Vertex–collider: the same question against the collider's
+//! exact signed distance, in the collider's frame ([`shapes::first_contact`]). The closest
+//! points at `t` fix the contact's weights and normal for the rest of the substep
+//! ([`pairs`]); a collider's feature is folded into the contact's offset and its motion into
+//! the contact's collider displacement ([`pairs::fold_kinematic`]), so friction and
+//! restitution see the motion relative to the collider.
 //!
 //! ## Response ([`contact`])
 //!
@@ -76,15 +101,20 @@
 //! 2. every vertex is **projected out of the analytic colliders** (exact signed-distance
 //!    projection to `r` from the surface at the end pose): no vertex ends inside one;
 //! 3. the **fail-safe**: the continuous test is run once more with zero thickness on every
-//!    candidate; while a pair still crosses, its dynamic particles are *frozen*: put back at
-//!    their start-of-substep position (a state free of crossings), carried by the rigid
-//!    motion of a fully kinematic object they hit (a moving collider mesh pushes them along).
+//!    candidate (for a collider's feature: reaching the collider's core — a face crossing a
+//!    box corner or a capsule's axis); while a pair still crosses, its dynamic particles are
+//!    *frozen*: put back at their start-of-substep position (a state free of crossings),
+//!    carried by the rigid motion of a fully kinematic object or an analytic collider they
+//!    hit (a moving collider pushes them along).
 //!    Each round freezes at least one more particle or ends, so it terminates, and no
 //!    simplex ends the substep crossing another. A frozen particle's velocity becomes, through
 //!    the core's `v = (x − x0)/h`, zero or its carrier's: a local, perfectly inelastic
 //!    "impact zone". `frozen` in the stats counts them; `unresolved` counts what the
 //!    fail-safe cannot fix (a particle squeezed between two differently moving colliders, or
 //!    a deforming kinematic mesh sweeping into a frozen one), 0 in every scene we ship.
+//!    With importance 1 and a stack of contacts one pass cannot separate, the fail-safe is
+//!    what keeps the cloth whole (the in-crate test
+//!    `the_fail_safe_leaves_no_crossing_when_one_pass_per_substep_cannot_resolve_a_stack`).
 //!
 //! ## Velocity level (`end_substep`)
 //!
@@ -97,7 +127,8 @@
 //! ## Residual and stats
 //!
 //! Residual (m): the deepest thickness violation at the end of the frame over the contacts of
-//! its last substep and the vertices near colliders. Reported each frame: `contacts`,
+//! its last substep, the vertices near colliders and the colliders' features near faces and
+//! edges. Reported each frame: `contacts`,
 //! `candidates` (largest per substep), `broad_phases`, `frozen`, `unresolved`,
 //! `max_penetration` (deepest violation at the end of any substep of the frame, m).
 //!

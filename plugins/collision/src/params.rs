@@ -12,6 +12,10 @@ use crate::shapes::{Collider, Key, Motion, Shape};
 /// Default thickness (m): the collision radius of every vertex, edge and face.
 pub const DEFAULT_THICKNESS: f64 = 0.005;
 
+/// Default collision layers: layer 0 only (bit 0), so that everything collides with
+/// everything until a scene says otherwise.
+pub const DEFAULT_LAYERS: u32 = 1;
+
 /// The parameters of the `collision` kind.
 #[derive(Clone, Debug, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -33,6 +37,10 @@ pub struct CollisionParams {
     pub colliders: Value,
     /// Object pairs that never collide with each other: `[["a", "b"], ...]`.
     pub exclude: Value,
+    /// Collision layers (a bitmask, bit `k` = layer `k`) of every target object and
+    /// collider unless overridden (`objects_settings`, a collider's `layers`). Two objects,
+    /// or an object and a collider, collide only if their masks share a bit. Default 1.
+    pub layers: u32,
 }
 
 impl Default for CollisionParams {
@@ -46,6 +54,7 @@ impl Default for CollisionParams {
             objects_settings: Value::Object(Default::default()),
             colliders: Value::Array(Vec::new()),
             exclude: Value::Array(Vec::new()),
+            layers: DEFAULT_LAYERS,
         }
     }
 }
@@ -63,6 +72,8 @@ pub struct ObjectSettings {
     pub face: bool,
     /// The object collides with itself.
     pub self_collision: bool,
+    /// Collision layers (bitmask): collides with objects and colliders sharing a bit.
+    pub layers: u32,
 }
 
 #[derive(Deserialize)]
@@ -73,6 +84,7 @@ struct ObjectOverride {
     edge: Option<bool>,
     face: Option<bool>,
     self_collision: Option<bool>,
+    layers: Option<Value>,
 }
 
 #[derive(Deserialize)]
@@ -93,6 +105,7 @@ struct ColliderSpec {
     keys: Option<Vec<KeySpec>>,
     pivot: Option<[f64; 3]>,
     thickness: Option<f64>,
+    layers: Option<Value>,
 }
 
 #[derive(Deserialize)]
@@ -107,6 +120,17 @@ struct KeySpec {
 
 fn finite3(v: &[f64; 3]) -> bool {
     v.iter().all(|c| c.is_finite())
+}
+
+/// A layer bitmask from JSON: an integer in `[0, 2³² − 1]`.
+fn layer_mask(v: &Value) -> Result<u32, String> {
+    match v.as_u64() {
+        Some(m) if m <= u64::from(u32::MAX) => Ok(m as u32),
+        _ => Err(format!(
+            "`layers` must be an integer bitmask in [0, {}] (bit k = layer k), found {v}",
+            u32::MAX
+        )),
+    }
 }
 
 impl CollisionParams {
@@ -130,11 +154,15 @@ impl CollisionParams {
                 .doc("dynamic friction coefficient: a sliding contact loses this times its normal correction of tangential motion")
                 .range(0.0, 1e3),
             ParamSpec::any("objects_settings", d.objects_settings)
-                .doc("per-object overrides: { name = { thickness = m, vertex = bool, edge = bool, face = bool, self_collision = bool } }"),
+                .doc("per-object overrides: { name = { thickness = m, vertex = bool, edge = bool, face = bool, self_collision = bool, layers = bitmask } }"),
             ParamSpec::any("colliders", d.colliders)
-                .doc("analytic colliders: [{ type = \"plane\", point, normal } | { type = \"sphere\", center, radius } | { type = \"box\", center, half_extents, rotation (deg, xyz) } | { type = \"capsule\", a, b, radius }], each with optional velocity (m/s) and angular_velocity (rad/s) about its pivot (default its centre), or keys = [{ time, translate, rotate (axis-angle, rad) }] as in pin_motion, and thickness (m)"),
+                .doc("analytic colliders: [{ type = \"plane\", point, normal } | { type = \"sphere\", center, radius } | { type = \"box\", center, half_extents, rotation (deg, xyz) } | { type = \"capsule\", a, b, radius }], each with optional velocity (m/s) and angular_velocity (rad/s) about its pivot (default its centre), or keys = [{ time, translate, rotate (axis-angle, rad) }] as in pin_motion, thickness (m) and layers (bitmask, default the group's layers)"),
             ParamSpec::any("exclude", d.exclude)
                 .doc("object pairs that never collide with each other: [[\"a\", \"b\"], ...]"),
+            ParamSpec::integer("layers", i64::from(d.layers))
+                .doc("collision layers of every target object and collider, as a bitmask (bit k = layer k; 1 = layer 0, 6 = layers 1 and 2); two objects, or an object and a collider, collide only if their masks share a bit; per object: objects_settings, per collider: its own layers; 0 collides with nothing (an object's self_collision still applies)")
+                .unit("bitmask")
+                .range(0.0, f64::from(u32::MAX)),
         ]
     }
 
@@ -172,6 +200,7 @@ impl CollisionParams {
             edge: true,
             face: true,
             self_collision: self.self_collision,
+            layers: self.layers,
         };
         let mut out = vec![base; names.len()];
         let table = match &self.objects_settings {
@@ -211,6 +240,11 @@ impl CollisionParams {
             s.edge = o.edge.unwrap_or(s.edge);
             s.face = o.face.unwrap_or(s.face);
             s.self_collision = o.self_collision.unwrap_or(s.self_collision);
+            if let Some(l) = &o.layers {
+                s.layers = layer_mask(l).map_err(|e| {
+                    PluginError::bad_parameter("objects_settings", format!("`{name}`: {e}"))
+                })?;
+            }
         }
         Ok(out)
     }
@@ -266,12 +300,12 @@ impl CollisionParams {
         };
         list.iter()
             .enumerate()
-            .map(|(i, v)| parse_collider(i, v))
+            .map(|(i, v)| parse_collider(i, v, self.layers))
             .collect()
     }
 }
 
-fn parse_collider(i: usize, v: &Value) -> Result<Collider, PluginError> {
+fn parse_collider(i: usize, v: &Value, default_layers: u32) -> Result<Collider, PluginError> {
     let bad = |m: String| PluginError::bad_parameter("colliders", format!("colliders[{i}]: {m}"));
     let s: ColliderSpec = serde_json::from_value(v.clone()).map_err(|e| bad(e.to_string()))?;
     let vec3 = |name: &str, v: Option<[f64; 3]>| -> Result<DVec3, PluginError> {
@@ -431,9 +465,14 @@ fn parse_collider(i: usize, v: &Value) -> Result<Collider, PluginError> {
         Some(t) => return Err(bad(format!("`thickness` must be >= 0, found {t}"))),
         None => 0.0,
     };
+    let layers = match &s.layers {
+        Some(l) => layer_mask(l).map_err(bad)?,
+        None => default_layers,
+    };
     Ok(Collider {
         shape,
         motion,
         thickness,
+        layers,
     })
 }

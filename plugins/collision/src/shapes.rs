@@ -184,6 +184,8 @@ pub struct Collider {
     pub motion: Motion,
     /// Extra collision radius of the shape (m).
     pub thickness: f64,
+    /// Collision layers (bitmask): only objects sharing a bit collide with it.
+    pub layers: u32,
 }
 
 /// A unit vector perpendicular-ish fallback when a direction is undefined.
@@ -275,6 +277,79 @@ impl Shape {
                     m.row(2).abs().dot(half_extents),
                 ) + DVec3::splat(margin);
                 (center - e, center + e)
+            }
+        }
+    }
+}
+
+/// The core of a shape and its sharp features, in the rest frame: the shape is the set of
+/// points within `radius` of the convex core (a sphere: its centre; a capsule: its axis; a
+/// box: the box itself, radius 0), and `points` and `edges` are the vertices and edges of
+/// that core. See [`Shape::features`].
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Features {
+    /// Vertices of the core (m, rest frame).
+    pub points: Vec<DVec3>,
+    /// Edges of the core (m, rest frame).
+    pub edges: Vec<[DVec3; 2]>,
+    /// Distance from the core to the shape's surface (m).
+    pub radius: f64,
+}
+
+impl Shape {
+    /// The sharp features a cloth face or edge must be tested against so that no part of it
+    /// (not only its vertices) enters the shape. The distance between a triangle and the
+    /// shape is its distance to the core minus `radius`, and the distance between two convex
+    /// polytopes (the triangle and the core) is attained at a vertex of one against the other,
+    /// or at an edge of each. The triangle's vertices are the vertex–collider test
+    /// ([`first_contact`], exact signed distance); the rest is the core's vertices against
+    /// the triangle and the core's edges against the triangle's edges, both ordinary
+    /// point–triangle and edge–edge queries of [`crate::ccd`] with thickness `radius` plus
+    /// the thicknesses in play. The plane has none: a half-space's distance to a triangle or
+    /// a segment is attained at a vertex.
+    pub fn features(&self) -> Features {
+        match *self {
+            Shape::Plane { .. } => Features::default(),
+            Shape::Sphere { center, radius } => Features {
+                points: vec![center],
+                edges: Vec::new(),
+                radius,
+            },
+            Shape::Capsule { a, b, radius } => Features {
+                points: if a == b { vec![a] } else { vec![a, b] },
+                edges: if a == b { Vec::new() } else { vec![[a, b]] },
+                radius,
+            },
+            Shape::Box {
+                center,
+                half_extents,
+                rotation,
+            } => {
+                // Corner k has the sign of axis i negative when bit i of k is 0.
+                let corner = |k: usize| {
+                    let s = |i: usize| if k & (1 << i) == 0 { -1.0 } else { 1.0 };
+                    center
+                        + rotation
+                            * DVec3::new(
+                                s(0) * half_extents.x,
+                                s(1) * half_extents.y,
+                                s(2) * half_extents.z,
+                            )
+                };
+                let points: Vec<DVec3> = (0..8).map(corner).collect();
+                let mut edges = Vec::with_capacity(12);
+                for k in 0..8 {
+                    for i in 0..3 {
+                        if k & (1 << i) == 0 {
+                            edges.push([points[k], points[k | (1 << i)]]);
+                        }
+                    }
+                }
+                Features {
+                    points,
+                    edges,
+                    radius: 0.0,
+                }
             }
         }
     }
@@ -435,6 +510,39 @@ mod tests {
                     if t > 0.0 {
                         assert!(phi >= r - 1e-9, "{shape:?}: φ {phi} at toi {t}");
                     }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn features_are_the_cores_vertices_and_edges_at_depth_radius() {
+        for shape in shapes() {
+            let f = shape.features();
+            let expected = match shape {
+                Shape::Plane { .. } => (0, 0),
+                Shape::Sphere { .. } => (1, 0),
+                Shape::Capsule { .. } => (2, 1),
+                Shape::Box { .. } => (8, 12),
+            };
+            assert_eq!((f.points.len(), f.edges.len()), expected, "{shape:?}");
+            // Every point of the core lies `radius` inside the surface.
+            let mut core: Vec<DVec3> = f.points.clone();
+            for [a, b] in &f.edges {
+                core.extend((1..4).map(|k| a.lerp(*b, k as f64 / 4.0)));
+            }
+            for p in core {
+                let (phi, _) = shape.signed_distance(p);
+                assert!((phi + f.radius).abs() < 1e-12, "{shape:?} at {p}: {phi}");
+            }
+            if let Shape::Box { half_extents, .. } = shape {
+                // The 12 edges: 4 along each axis, each as long as that side.
+                let mut lengths: Vec<f64> = f.edges.iter().map(|[a, b]| a.distance(*b)).collect();
+                lengths.sort_by(f64::total_cmp);
+                let mut sides = [half_extents.x, half_extents.y, half_extents.z].map(|h| 2.0 * h);
+                sides.sort_by(f64::total_cmp);
+                for (k, l) in lengths.iter().enumerate() {
+                    assert!((l - sides[k / 4]).abs() < 1e-12, "{lengths:?}");
                 }
             }
         }
