@@ -1,1 +1,225 @@
-fn main() {}
+//! Broad + narrow phase cost per substep on the 64 × 64 cloth heap (`scenes/cloth_heap.toml`:
+//! a 1 m cloth of 4,096 vertices, 8,064 triangles, dropped edge-first onto the ground, where it
+//! folds onto itself; self-collision and a ground plane).
+//!
+//! The scene is simulated in-process (the plugin and `stretch` registered with `nucleus-core`
+//! as the host registers loaded libraries) to a folded state with many contacts — frame
+//! [`DEFAULT_FRAMES`], or `NUCLEUS_HEAP_FRAMES` — and that state is saved. Every iteration
+//! restores it and times one substep from it (the restore is outside the timing):
+//!
+//! * `heap/broad_phase`: the collision group's `begin_substep` alone — refit of the two
+//!   bounding-volume trees over the swept primitives and collection of the candidate pairs;
+//! * `heap/collision_group`: the group's whole substep — `begin_substep`, its passes of
+//!   `project` (importance 4: detection, continuous tests, projection; friction, the
+//!   projection out of the colliders and the fail-safe in the last) and `end_substep`, on the
+//!   core's prediction from the saved state (gravity, then `x = x0 + h v`);
+//! * `heap/substep_with_collision` and `heap/substep_without_collision`: the core's whole
+//!   substep (stretch and collision, interleaved) and the same without the collision group.
+//!
+//! Before timing, the counts at the saved state are printed (candidates, contacts, and the
+//! frame's stats). Each sample is one substep, so criterion's times are per substep.
+//!
+//! `cargo bench -p nucleus-collision --bench collision`
+//! (`NUCLEUS_HEAP_FRAMES=N` to benchmark another state of the heap).
+
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+use criterion::{black_box, criterion_group, criterion_main, Criterion};
+use glam::DVec3;
+use nucleus_core::world::Particles;
+use nucleus_core::{Registry, Scene, Simulation};
+use nucleus_sdk::abi_stable::std_types::{RResult, RSlice, RSliceMut};
+use nucleus_sdk::prelude::*;
+
+/// The scene, relative to this crate.
+const SCENE: &str = "../../scenes/cloth_heap.toml";
+/// Frames simulated before the state is saved: 1.5 s, the cloth lies folded on the ground.
+const DEFAULT_FRAMES: u32 = 90;
+
+/// The heap at its saved state.
+struct Heap {
+    sim: Simulation,
+    saved: Particles,
+    time: f64,
+    frame: u64,
+    collision: usize,
+}
+
+impl Heap {
+    fn new() -> Self {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(SCENE);
+        let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let mut registry = Registry::default();
+        registry.add_in_process(nucleus_collision::nucleus_plugin());
+        registry.add_in_process(nucleus_stretch::nucleus_plugin());
+        let mut sim = Simulation::build(&scene, &registry).unwrap_or_else(|e| panic!("{e}"));
+        let frames = std::env::var("NUCLEUS_HEAP_FRAMES")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(DEFAULT_FRAMES);
+        let start = Instant::now();
+        for _ in 0..frames {
+            sim.step_frame().unwrap_or_else(|e| panic!("{e}"));
+        }
+        let collision = sim
+            .groups
+            .iter()
+            .position(|g| g.kind == "collision")
+            .expect("a collision group");
+        let stats: Vec<String> = sim
+            .reports()
+            .expect("reports")
+            .into_iter()
+            .filter(|(k, _)| k.starts_with("collision."))
+            .map(|(k, v)| format!("{} {v}", &k["collision.".len()..]))
+            .collect();
+        let top = sim.positions().iter().map(|p| p.y).fold(f64::MIN, f64::max);
+        eprintln!(
+            "cloth heap after {frames} frames ({:.1} s to simulate): top of the heap at {top:.3} m; \
+             frame {frames}'s collision stats: {}",
+            start.elapsed().as_secs_f64(),
+            stats.join(", ")
+        );
+        Self {
+            saved: sim.particles.clone(),
+            time: sim.time,
+            frame: sim.frame,
+            sim,
+            collision,
+        }
+    }
+
+    fn restore(&mut self) {
+        self.sim.particles.clone_from(&self.saved);
+        self.sim.time = self.time;
+        self.sim.frame = self.frame;
+    }
+
+    /// The core's stages before the groups, from the saved state: gravity, then the
+    /// prediction (the heap has no kinematic particle).
+    fn predict(&mut self) {
+        self.restore();
+        let h = self.sim.h();
+        let g = DVec3::from_array(self.sim.settings.gravity);
+        let p = &mut self.sim.particles;
+        for i in 0..p.x.len() {
+            p.x0[i] = p.x[i];
+            if p.inv_mass[i] > 0.0 {
+                let v = DVec3::from_array(p.v[i]) + g * h;
+                p.v[i] = v.to_array();
+                p.x[i] = (DVec3::from_array(p.x[i]) + v * h).to_array();
+            }
+        }
+    }
+
+    /// The collision group's stages of one substep: `begin_substep`, and if `full`, its
+    /// passes and `end_substep` (the velocity update between them is the core's and cheap).
+    fn collision_substep(&mut self, full: bool) {
+        let h = self.sim.h();
+        let settings = &self.sim.settings;
+        let passes = self.sim.groups[self.collision].importance * settings.iterations;
+        let p = &mut self.sim.particles;
+        let mut ctx = SolveContext {
+            x: RSliceMut::from_mut_slice(&mut p.x),
+            v: RSliceMut::from_mut_slice(&mut p.v),
+            x0: RSlice::from_slice(&p.x0),
+            inv_mass: RSlice::from_slice(&p.inv_mass),
+            object: RSlice::from_slice(&p.object),
+            flags: RSlice::from_slice(&p.flags),
+            attributes: RSlice::EMPTY,
+            h,
+            time: self.time,
+            gravity: settings.gravity,
+            frame: self.frame,
+            substep: 0,
+            substeps: settings.substeps,
+            pass: 0,
+            passes,
+        };
+        let group = &mut self.sim.groups[self.collision].group;
+        let ok = |r: RResult<(), PluginError>| {
+            if let RResult::RErr(e) = r {
+                panic!("{e}");
+            }
+        };
+        ok(group.begin_substep(&mut ctx));
+        if full {
+            for pass in 0..passes {
+                ctx.pass = pass;
+                ok(group.project(&mut ctx));
+            }
+            ok(group.end_substep(&mut ctx));
+        }
+    }
+}
+
+/// Times `f` once per iteration after `setup`, which is not timed.
+fn timed(
+    heap: &mut Heap,
+    iters: u64,
+    mut setup: impl FnMut(&mut Heap),
+    mut f: impl FnMut(&mut Heap),
+) -> Duration {
+    let mut total = Duration::ZERO;
+    for _ in 0..iters {
+        setup(heap);
+        let t = Instant::now();
+        f(heap);
+        total += t.elapsed();
+        black_box(heap.sim.positions()[0]);
+    }
+    total
+}
+
+fn heap(c: &mut Criterion) {
+    let mut heap = Heap::new();
+    // The candidates and contacts of one substep from the saved state.
+    heap.predict();
+    heap.collision_substep(true);
+    let stats: Vec<String> = heap
+        .sim
+        .reports()
+        .expect("reports")
+        .into_iter()
+        .filter(|(k, _)| k == "collision.candidates" || k == "collision.contacts")
+        .map(|(k, v)| format!("{} {v}", &k["collision.".len()..]))
+        .collect();
+    eprintln!("one substep from the saved state: {}", stats.join(", "));
+
+    let mut bench = c.benchmark_group("heap");
+    bench
+        .sample_size(20)
+        .warm_up_time(Duration::from_secs(1))
+        .measurement_time(Duration::from_secs(6));
+    bench.bench_function("broad_phase", |b| {
+        b.iter_custom(|n| timed(&mut heap, n, Heap::predict, |h| h.collision_substep(false)))
+    });
+    bench.bench_function("collision_group", |b| {
+        b.iter_custom(|n| timed(&mut heap, n, Heap::predict, |h| h.collision_substep(true)))
+    });
+    bench.bench_function("substep_with_collision", |b| {
+        b.iter_custom(|n| {
+            timed(&mut heap, n, Heap::restore, |h| {
+                h.sim.substep(0).unwrap_or_else(|e| panic!("{e}"))
+            })
+        })
+    });
+    // The same state and substep without the collision group.
+    let collision = heap.collision;
+    let removed = heap.sim.groups.remove(collision);
+    heap.sim.reschedule();
+    bench.bench_function("substep_without_collision", |b| {
+        b.iter_custom(|n| {
+            timed(&mut heap, n, Heap::restore, |h| {
+                h.sim.substep(0).unwrap_or_else(|e| panic!("{e}"))
+            })
+        })
+    });
+    heap.sim.groups.insert(collision, removed);
+    heap.sim.reschedule();
+    bench.finish();
+}
+
+criterion_group!(benches, heap);
+criterion_main!(benches);

@@ -16,11 +16,11 @@
 //!   (δ(0) + δ(1) − M)/2`, and a pair with `(δ(0) + δ(1) − M)/2 > d` never comes within `d`
 //!   (with a relative guard of 1e-9 against rounding);
 //! * a pair with `M < δ(0)` **cannot cross** within the substep (`δ(t) ≥ δ(0) − tM > 0`): no
-//!   time of impact is needed to keep it on its side, and the state at the end decides — a
-//!   contact at `t = 1` with the closest points of the end if `δ(1) ≤ d`, nothing otherwise
-//!   (a pair that dips within `d` during the substep and ends outside it needs no
-//!   correction). This is the speculative half of the narrow phase: the continuous test is
-//!   kept for the pairs that move farther than they are apart, the only ones that can
+//!   time of impact is needed to keep it on its side. If it ends within `d` it gets its
+//!   contact at `t = 0` — the start's separating direction and closest points, a
+//!   conservative time of impact taken from the last state known to be valid — and if it
+//!   ends outside `d` it needs no correction (see `contact_time`). The continuous test runs
+//!   only for the pairs that move farther than they are apart, the only ones that can
 //!   tunnel.
 //!
 //! Resting and slowly sliding neighbours — most candidates of a draped or folded cloth —
@@ -163,26 +163,45 @@ fn relative_motion(tr: &[Track; 4], first: &[usize], second: &[usize]) -> f64 {
     m
 }
 
+/// The time at which a pair gets its contact, from the prefilter's verdict, the distance at
+/// the end `d1`, the contact distance `d` and the continuous test `ccd()` (the earliest time
+/// within `d`, or `None`).
+///
+/// Only a pair that can cross needs a time of impact. A pair that cannot (it moves less than
+/// it is apart) and ends within `d` gets its contact at `t = 0`: the start's separating
+/// direction and closest points — a conservative time of impact, and the last state known to
+/// be valid (the end may be corrupted by another pair's crossing: a particle that went
+/// through one triangle ends below its neighbours too, and a normal taken there points
+/// sideways). A pair that cannot cross and ends outside `d` needs no correction.
+fn contact_time(
+    verdict: Prefilter,
+    d1: f64,
+    d: f64,
+    ccd: impl FnOnce() -> Option<f64>,
+) -> Option<f64> {
+    match verdict {
+        Prefilter::AtStart => Some(0.0),
+        Prefilter::Apart => None,
+        Prefilter::CannotCross => (d1 <= d).then_some(0.0),
+        Prefilter::Undecided => ccd(),
+    }
+}
+
 /// Vertex `p` against triangle `(a, b, c)`, kept `d` apart.
 pub fn vertex_face(pair: [u32; 2], ids: [u32; 4], tr: &[Track; 4], d: f64) -> Option<Contact> {
     let (_, d0) = distance::point_triangle_closest(tr[0].x0, tr[1].x0, tr[2].x0, tr[3].x0);
     let (_, d1) = distance::point_triangle_closest(tr[0].x1, tr[1].x1, tr[2].x1, tr[3].x1);
     let m = relative_motion(tr, &[0], &[1, 2, 3]);
-    let t = match prefilter(d0.sqrt(), d1.sqrt(), m, d) {
-        Prefilter::AtStart => 0.0,
-        Prefilter::Apart => return None,
-        Prefilter::CannotCross if d1.sqrt() <= d => 1.0,
-        Prefilter::CannotCross => return None,
-        Prefilter::Undecided => {
-            ccd::point_triangle_ccd(
-                [tr[0].x0, tr[1].x0, tr[2].x0, tr[3].x0],
-                [tr[0].x1, tr[1].x1, tr[2].x1, tr[3].x1],
-                d,
-                &CCD_OPTIONS,
-            )
-            .toi?
-        }
-    };
+    let (d0, d1) = (d0.sqrt(), d1.sqrt());
+    let t = contact_time(prefilter(d0, d1, m, d), d1, d, || {
+        ccd::point_triangle_ccd(
+            [tr[0].x0, tr[1].x0, tr[2].x0, tr[3].x0],
+            [tr[0].x1, tr[1].x1, tr[2].x1, tr[3].x1],
+            d,
+            &CCD_OPTIONS,
+        )
+        .toi
+    })?;
     let (p, a, b, c) = (tr[0].at(t), tr[1].at(t), tr[2].at(t), tr[3].at(t));
     let (bary, _) = distance::point_triangle_closest(p, a, b, c);
     let w = [1.0, -bary[0], -bary[1], -bary[2]];
@@ -195,21 +214,16 @@ pub fn edge_edge(pair: [u32; 2], ids: [u32; 4], tr: &[Track; 4], dist: f64) -> O
     let (_, _, d0) = distance::segment_segment_closest(tr[0].x0, tr[1].x0, tr[2].x0, tr[3].x0);
     let (_, _, d1) = distance::segment_segment_closest(tr[0].x1, tr[1].x1, tr[2].x1, tr[3].x1);
     let m = relative_motion(tr, &[0, 1], &[2, 3]);
-    let t = match prefilter(d0.sqrt(), d1.sqrt(), m, dist) {
-        Prefilter::AtStart => 0.0,
-        Prefilter::Apart => return None,
-        Prefilter::CannotCross if d1.sqrt() <= dist => 1.0,
-        Prefilter::CannotCross => return None,
-        Prefilter::Undecided => {
-            ccd::edge_edge_ccd(
-                [tr[0].x0, tr[1].x0, tr[2].x0, tr[3].x0],
-                [tr[0].x1, tr[1].x1, tr[2].x1, tr[3].x1],
-                dist,
-                &CCD_OPTIONS,
-            )
-            .toi?
-        }
-    };
+    let (d0, d1) = (d0.sqrt(), d1.sqrt());
+    let t = contact_time(prefilter(d0, d1, m, dist), d1, dist, || {
+        ccd::edge_edge_ccd(
+            [tr[0].x0, tr[1].x0, tr[2].x0, tr[3].x0],
+            [tr[0].x1, tr[1].x1, tr[2].x1, tr[3].x1],
+            dist,
+            &CCD_OPTIONS,
+        )
+        .toi
+    })?;
     let (a, b, c, d) = (tr[0].at(t), tr[1].at(t), tr[2].at(t), tr[3].at(t));
     let (s, u, _) = distance::segment_segment_closest(a, b, c, d);
     let w = [1.0 - s, s, -(1.0 - u), -u];
@@ -223,21 +237,16 @@ pub fn vertex_edge(pair: [u32; 2], ids: [u32; 4], tr: &[Track; 4], dist: f64) ->
     let (_, d0) = distance::point_segment_closest(tr[0].x0, tr[2].x0, tr[3].x0);
     let (_, d1) = distance::point_segment_closest(tr[0].x1, tr[2].x1, tr[3].x1);
     let m = relative_motion(tr, &[0], &[2, 3]);
-    let t = match prefilter(d0.sqrt(), d1.sqrt(), m, dist) {
-        Prefilter::AtStart => 0.0,
-        Prefilter::Apart => return None,
-        Prefilter::CannotCross if d1.sqrt() <= dist => 1.0,
-        Prefilter::CannotCross => return None,
-        Prefilter::Undecided => {
-            ccd::edge_edge_ccd(
-                [tr[0].x0, tr[0].x0, tr[2].x0, tr[3].x0],
-                [tr[0].x1, tr[0].x1, tr[2].x1, tr[3].x1],
-                dist,
-                &CCD_OPTIONS,
-            )
-            .toi?
-        }
-    };
+    let (d0, d1) = (d0.sqrt(), d1.sqrt());
+    let t = contact_time(prefilter(d0, d1, m, dist), d1, dist, || {
+        ccd::edge_edge_ccd(
+            [tr[0].x0, tr[0].x0, tr[2].x0, tr[3].x0],
+            [tr[0].x1, tr[0].x1, tr[2].x1, tr[3].x1],
+            dist,
+            &CCD_OPTIONS,
+        )
+        .toi
+    })?;
     let (p, c, d) = (tr[0].at(t), tr[2].at(t), tr[3].at(t));
     let u = closest_on_segment(p, c, d);
     let w = [1.0, 0.0, -(1.0 - u), -u];
@@ -362,21 +371,40 @@ mod tests {
         })
     }
 
-    /// A pair's distance as a function of time.
-    type Distance<'a> = &'a dyn Fn(f64) -> f64;
+    /// A pair's distance as a function of time, its relative motion bound, and its contact.
+    type Case<'a> = (&'a dyn Fn(f64) -> f64, f64, Option<Contact>);
 
-    /// Every pair that a dense sampling of the motion finds within `d` gets a contact, except
-    /// one that cannot cross (it moves less than its start distance) and ends farther than
-    /// `d`, which needs no correction; a pair that can cross gets one whose time of impact is
-    /// never after the first sampled contact.
+    /// Whether a dense sampling sees point `tr[0]` pass through the plane of triangle
+    /// `tr[1..]` within it (a crossing, found independently of the continuous test).
+    fn sampled_crossing(tr: &[Track; 4]) -> bool {
+        // (side of the plane, whether the point's projection falls in the triangle)
+        let side = |t: f64| {
+            let (p, a, b, c) = (tr[0].at(t), tr[1].at(t), tr[2].at(t), tr[3].at(t));
+            let n = (b - a).cross(c - a);
+            let h = n.dot(p - a);
+            let foot = p - h / n.length_squared() * n;
+            let (_, d2) = distance::point_triangle_closest(foot, a, b, c);
+            (h > 0.0, d2 < 1e-24)
+        };
+        (0..400).any(|k| {
+            let (s0, in0) = side(k as f64 / 400.0);
+            let (s1, in1) = side((k + 1) as f64 / 400.0);
+            s0 != s1 && in0 && in1
+        })
+    }
+
+    /// Every pair that a dense sampling of the motion finds within `d` gets a contact if it
+    /// can cross (it moves farther than it is apart, or starts in contact); one that cannot
+    /// gets one exactly when it ends within `d`, taken at the start of the substep; and every
+    /// crossing a sampling sees (a vertex through a face) gets a contact.
     #[test]
     fn prefilter_and_toi_never_miss_a_sampled_contact() {
         let mut seed = 21;
         let d = 0.05;
-        let (mut contacts, mut continuous, mut at_end) = (0, 0, 0);
+        let (mut contacts, mut continuous, mut at_start, mut crossings) = (0, 0, 0, 0);
         for k in 0..4500 {
             // Large motions, and small ones in a configuration of about the thickness's size
-            // (most of those cannot cross: the end state decides).
+            // (most of those cannot cross).
             let mut tr = random_tracks(&mut seed, [0.3, 1.5, 0.3][k % 3]);
             if k % 3 == 2 {
                 for t in &mut tr {
@@ -384,30 +412,21 @@ mod tests {
                     t.x1 *= 0.12;
                 }
             }
-            let sampled = |dist: &dyn Fn(f64) -> f64| {
-                (0..=400).map(|s| s as f64 / 400.0).find(|&t| dist(t) <= d)
-            };
+            let vf = vertex_face([0, 0], [0, 1, 2, 3], &tr, d);
+            if sampled_crossing(&tr) {
+                crossings += 1;
+                assert!(vf.is_some(), "missed a crossing");
+            }
             let vf_dist = |t: f64| {
-                distance::point_triangle_closest(tr[0].at(t), tr[1].at(t), tr[2].at(t), tr[3].at(t))
-                    .1
-                    .sqrt()
+                let (p, a, b, c) = (tr[0].at(t), tr[1].at(t), tr[2].at(t), tr[3].at(t));
+                distance::point_triangle_closest(p, a, b, c).1.sqrt()
             };
             let ee_dist = |t: f64| {
-                distance::segment_segment_closest(
-                    tr[0].at(t),
-                    tr[1].at(t),
-                    tr[2].at(t),
-                    tr[3].at(t),
-                )
-                .2
-                .sqrt()
+                let (a, b, c, e) = (tr[0].at(t), tr[1].at(t), tr[2].at(t), tr[3].at(t));
+                distance::segment_segment_closest(a, b, c, e).2.sqrt()
             };
-            let cases: [(Distance, f64, Option<Contact>); 2] = [
-                (
-                    &vf_dist,
-                    relative_motion(&tr, &[0], &[1, 2, 3]),
-                    vertex_face([0, 0], [0, 1, 2, 3], &tr, d),
-                ),
+            let cases: [Case; 2] = [
+                (&vf_dist, relative_motion(&tr, &[0], &[1, 2, 3]), vf),
                 (
                     &ee_dist,
                     relative_motion(&tr, &[0, 1], &[2, 3]),
@@ -415,31 +434,37 @@ mod tests {
                 ),
             ];
             for (dist, m, contact) in cases {
-                let Some(s) = sampled(dist) else { continue };
+                let first = (0..=400).map(|s| s as f64 / 400.0).find(|&t| dist(t) <= d);
+                let Some(first) = first else { continue };
                 contacts += 1;
-                let cannot_cross = m < dist(0.0);
-                if cannot_cross && dist(1.0) > d {
+                let starts_in = dist(0.0) <= d * (1.0 + AT_START_SLACK);
+                if m < dist(0.0) && !starts_in {
+                    // Cannot cross: a contact exactly when it ends within `d`, taken at the
+                    // start (where its constraint holds).
+                    assert_eq!(contact.is_some(), dist(1.0) <= d);
+                    if let Some(c) = contact {
+                        let x: Vec<DVec3> = tr.iter().map(|t| t.x0).collect();
+                        assert!(c.value(&x) >= -1e-12);
+                        at_start += 1;
+                    }
                     continue;
                 }
-                let c = contact.unwrap_or_else(|| panic!("missed a contact at t = {s}"));
+                let c = contact.unwrap_or_else(|| panic!("missed a contact at t = {first}"));
                 assert!(c.n.is_finite() && (c.n.length() - 1.0).abs() < 1e-12);
-                if cannot_cross {
-                    at_end += 1;
-                } else {
-                    continuous += 1;
-                }
+                continuous += 1;
             }
         }
         assert!(
-            contacts > 300 && continuous > 100 && at_end > 10,
-            "too few cases: {contacts} contacts, {continuous} continuous, {at_end} at the end"
+            contacts > 300 && continuous > 50 && at_start > 10 && crossings > 20,
+            "too few cases: {contacts} contacts, {continuous} continuous, {at_start} taken at \
+             the start, {crossings} crossings"
         );
     }
 
-    /// A pair that cannot cross and ends within `d` gets its contact at the end, with the
-    /// closest points of the end: projecting it restores the distance exactly.
+    /// A pair that cannot cross and ends within `d` gets its contact with the start's
+    /// direction and closest points: projecting it at the end restores the distance exactly.
     #[test]
-    fn a_pair_that_cannot_cross_gets_its_contact_from_the_end_state() {
+    fn a_pair_that_cannot_cross_gets_its_contact_from_the_start() {
         let still = |p: DVec3| Track { x0: p, x1: p };
         // A vertex 3 cm above a face, coming down 2.5 cm: it cannot cross, ends 5 mm above.
         let tr = [
@@ -457,10 +482,20 @@ mod tests {
         let mut x: Vec<DVec3> = tr.iter().map(|t| t.x1).collect();
         c.project(&mut x, &[1.0, 0.0, 0.0, 0.0]);
         assert!((x[0].y - 0.01).abs() < 1e-15, "{}", x[0]);
-        // Ending 2 cm above (it dipped nowhere): nothing to correct.
+        // Ending 2 cm above: nothing to correct.
         let mut far = tr;
         far[0].x1.y = 0.02;
         assert!(vertex_face([0, 0], [0, 1, 2, 3], &far, 0.01).is_none());
+        // Coming down at a slant past the face's edge: the contact has the start's
+        // direction (straight up from the face below the start), not the end's (sideways).
+        let mut slant = tr;
+        slant[0] = Track {
+            x0: DVec3::new(0.008, 0.032, 0.2),
+            x1: DVec3::new(-0.004, 0.006, 0.2),
+        };
+        assert!(relative_motion(&slant, &[0], &[1, 2, 3]) < 0.032);
+        let c = vertex_face([0, 0], [0, 1, 2, 3], &slant, 0.01).expect("a contact");
+        assert!((c.n - DVec3::Y).length() < 1e-12, "{}", c.n);
     }
 
     #[test]
