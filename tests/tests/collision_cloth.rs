@@ -359,6 +359,7 @@ fn scene_figures_for_the_closing_note() {
         "cloth_heap",
         "cloth_twist",
         "rubber_band",
+        "collision_sweep",
     ] {
         let t = std::time::Instant::now();
         let (pen, pairs) = scene_figures(&format!("../scenes/{name}.toml"));

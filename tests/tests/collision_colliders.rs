@@ -143,8 +143,9 @@ fn a_thin_capsule_swept_through_the_middle_of_coarse_triangles_never_crosses_the
         below, 0,
         "substeps with the capsule on the wrong side of the cloth"
     );
-    // Never inside the capsule, and kept at the thickness to within 1 µm.
-    assert!(closest - radius >= thickness - 1e-6, "{}", closest - radius);
+    // Never inside the capsule, and kept at the thickness to within 0.1 µm: like vertices,
+    // faces and edges are projected out of a collider's features at the end of the substep.
+    assert!(closest - radius >= thickness - 1e-7, "{}", closest - radius);
     // The capsule carried the cloth with it, 30 cm behind its plane.
     let deepest = sim
         .positions()

@@ -98,8 +98,12 @@
 //!    pushed (`dn > 0`) removes its relative tangential displacement entirely if it is at
 //!    most `μs dn` (sticking), else `μd dn` of it (sliding); the collider's own motion is
 //!    subtracted, so animated colliders drag and carry correctly;
-//! 2. every vertex is **projected out of the analytic colliders** (exact signed-distance
-//!    projection to `r` from the surface at the end pose): no vertex ends inside one;
+//! 2. every face and edge near an analytic collider's feature is **pushed out** to its
+//!    contact distance along the current separating direction (a few Gauss-Seidel sweeps;
+//!    contacts keep the plane of their time of impact, which drifts when cloth slides around a
+//!    curved core), then every vertex is **projected out of the analytic colliders** (exact
+//!    signed-distance projection to `r` from the surface at the end pose): no vertex ends
+//!    inside one;
 //! 3. the **fail-safe**: the continuous test is run once more with zero thickness on every
 //!    candidate (for a collider's feature: reaching the collider's core — a face crossing a
 //!    box corner or a capsule's axis); while a pair still crosses, its dynamic particles are
