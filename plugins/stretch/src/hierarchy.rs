@@ -37,6 +37,18 @@
 //!
 //! The residual is the largest and RMS relative overshoot `C/L` of the coarse edges
 //! (dimensionless); it stores no energy (hard constraints).
+//!
+//! **When it pays** (measured on the peers' drape, hard stretch, one pass per substep, one
+//! thread; `bench/peers.sh`, `docs/peers.md`): at few substeps, where Gauss-Seidel cannot
+//! carry the cloth's weight to the pins, it cuts the RMS strain 5–12× for 5–25 % more time per
+//! frame (N = 64 at 10 substeps: 2.0 % against 13.7 % plain and 6.6 % with `tether`; N = 128:
+//! 2.7 % against 33 % and 17 %). With many substeps the error left is local — every edge
+//! turning within a substep — and the coarse levels no longer help: at 40 substeps it matches
+//! `tether`, and beyond about 80 its deepest levels, whose corrections drag whole regions of
+//! the cloth, leave a floor of about 0.4 % RMS strain that plain substeps go below (N = 64 at
+//! 160 substeps: 0.41 % with 8 levels, 0.17 % with `levels = 1`, 0.16 % without the kind).
+//! Use it, with a few levels, to make coarse time steps hold; use substeps and `tether` for
+//! tight strain.
 
 use std::collections::BTreeMap;
 
