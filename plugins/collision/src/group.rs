@@ -96,6 +96,10 @@ pub struct CollisionGroup {
     edge_point_tests: Vec<bool>,
     faces: Vec<[u32; 3]>,
     face_obj: Vec<u32>,
+    /// Boxes of the edges and faces in the rest shape (not grown): a same-object pair whose
+    /// boxes are `d` apart needs no exact rest distance.
+    edge_rest_boxes: Vec<Aabb>,
+    face_rest_boxes: Vec<Aabb>,
     colliders: Vec<Collider>,
     /// Distance from each collider's core to its surface, plus its thickness (m).
     collider_radius: Vec<f64>,
@@ -215,6 +219,8 @@ impl CollisionGroup {
             edge_point_tests: Vec::new(),
             faces: Vec::new(),
             face_obj: Vec::new(),
+            edge_rest_boxes: Vec::new(),
+            face_rest_boxes: Vec::new(),
             colliders,
             collider_radius,
             feat_point_tracks: vec![[DVec3::ZERO; 2]; feat_points.len()],
@@ -411,6 +417,17 @@ impl CollisionGroup {
             .collect();
         g.edge_bvh = Bvh::build(&g.edge_boxes);
         g.face_bvh = Bvh::build(&g.face_boxes);
+        let rest = &g.rest;
+        g.edge_rest_boxes = g
+            .edges
+            .iter()
+            .map(|e| Aabb::of_points(&e.map(|i| rest[i as usize]), 0.0))
+            .collect();
+        g.face_rest_boxes = g
+            .faces
+            .iter()
+            .map(|f| Aabb::of_points(&f.map(|i| rest[i as usize]), 0.0))
+            .collect();
         g.iso_boxes = vec![Aabb::EMPTY; g.isolated.len()];
         g.collider_boxes = vec![Aabb::EMPTY; g.colliders.len()];
         g.pose0 = vec![Pose::IDENTITY; g.colliders.len()];
@@ -522,7 +539,9 @@ impl CollisionGroup {
 
     /// Refits the trees to the swept boxes over `[x0, x]` (grown by a margin) and collects the
     /// candidate pairs with their contact distances, sorted; remaps the existing contacts onto
-    /// them.
+    /// them. The pairs are generated in their sorted order — kinds in [`PairKind`] order, the
+    /// first primitive ascending, and each query's hits sorted by the second — so no global
+    /// sort is needed (checked in debug builds).
     fn broad_phase(&mut self, x0: &[DVec3], x: &[DVec3], inv_mass: &[f64]) {
         self.stats.broad_phases += 1;
         for i in 0..self.verts.len() {
@@ -543,122 +562,43 @@ impl CollisionGroup {
         let mut pending = std::mem::take(&mut self.pending);
         pending.clear();
         let rest = &self.rest;
+        // The hits of one query, sorted by their second primitive.
+        let sort_tail = |pending: &mut Vec<(Candidate, f64)>, from: usize| {
+            pending[from..].sort_unstable_by_key(|c| c.0.pair[1]);
+        };
+        // The contact distance of a same-object pair whose rest boxes are `gap2` (squared)
+        // apart, from its exact rest distance only when the boxes are closer than `d`.
+        let same_object = |d: f64, gap2: f64, exact: &dyn Fn() -> f64| {
+            if gap2 >= d * d {
+                Some(d)
+            } else {
+                rest_reach(d, exact())
+            }
+        };
 
-        // Vertex–face.
-        if !self.faces.is_empty() {
+        // Vertex–collider.
+        for c in 0..self.colliders.len() {
+            let cb = self.collider_boxes[c];
+            let rc = self.colliders[c].thickness;
             for i in 0..self.verts.len() {
-                let p = self.verts[i];
-                let po = self.vert_obj[i];
-                self.face_bvh
-                    .query(&self.vert_boxes[i], &self.face_boxes, &mut stack, |f| {
-                        let tri = self.faces[f as usize];
-                        let fo = self.face_obj[f as usize];
-                        if tri.contains(&p) || !self.objects_may_collide(po, fo) {
-                            return;
-                        }
-                        if Self::all_kinematic(&[p, tri[0], tri[1], tri[2]], inv_mass) {
-                            return;
-                        }
-                        let mut d = self.radius(po) + self.radius(fo);
-                        if po == fo {
-                            let [a, b, c] = tri.map(|k| rest[k as usize]);
-                            let (_, d2) =
-                                distance::point_triangle_closest(rest[p as usize], a, b, c);
-                            match rest_reach(d, d2) {
-                                Some(r) => d = r,
-                                None => return,
-                            }
-                        }
-                        let pair = [i as u32, f];
-                        pending.push((
-                            Candidate {
-                                kind: PairKind::VertexFace,
-                                pair,
-                            },
-                            d,
-                        ));
-                    });
+                let vo = self.vert_obj[i];
+                if inv_mass[self.verts[i] as usize] > 0.0
+                    && self.vert_boxes[i].overlaps(&cb)
+                    && self.collides_with_collider(vo, c as u32)
+                {
+                    let pair = [c as u32, i as u32];
+                    let d = self.radius(vo) + rc;
+                    pending.push((
+                        Candidate {
+                            kind: PairKind::Collider,
+                            pair,
+                        },
+                        d,
+                    ));
+                }
             }
         }
-        // Edge–edge.
-        for i in 0..self.edges.len() {
-            let e = self.edges[i];
-            let eo = self.edge_obj[i];
-            self.edge_bvh
-                .query(&self.edge_boxes[i], &self.edge_boxes, &mut stack, |j| {
-                    if j as usize <= i {
-                        return;
-                    }
-                    let f = self.edges[j as usize];
-                    let fo = self.edge_obj[j as usize];
-                    if f.contains(&e[0]) || f.contains(&e[1]) || !self.objects_may_collide(eo, fo) {
-                        return;
-                    }
-                    if Self::all_kinematic(&[e[0], e[1], f[0], f[1]], inv_mass) {
-                        return;
-                    }
-                    let mut d = self.radius(eo) + self.radius(fo);
-                    if eo == fo {
-                        let (_, _, d2) = distance::segment_segment_closest(
-                            rest[e[0] as usize],
-                            rest[e[1] as usize],
-                            rest[f[0] as usize],
-                            rest[f[1] as usize],
-                        );
-                        match rest_reach(d, d2) {
-                            Some(r) => d = r,
-                            None => return,
-                        }
-                    }
-                    let pair = [i as u32, j];
-                    pending.push((
-                        Candidate {
-                            kind: PairKind::EdgeEdge,
-                            pair,
-                        },
-                        d,
-                    ));
-                });
-        }
-        // Particle–curve edge.
-        for &k in &self.isolated {
-            let i = k as usize;
-            let p = self.verts[i];
-            let po = self.vert_obj[i];
-            self.edge_bvh
-                .query(&self.vert_boxes[i], &self.edge_boxes, &mut stack, |j| {
-                    let f = self.edges[j as usize];
-                    let fo = self.edge_obj[j as usize];
-                    if !self.edge_curve[j as usize]
-                        || f.contains(&p)
-                        || !self.objects_may_collide(po, fo)
-                        || Self::all_kinematic(&[p, f[0], f[1]], inv_mass)
-                    {
-                        return;
-                    }
-                    let mut d = self.radius(po) + self.radius(fo);
-                    if po == fo {
-                        let (_, d2) = distance::point_segment_closest(
-                            rest[p as usize],
-                            rest[f[0] as usize],
-                            rest[f[1] as usize],
-                        );
-                        match rest_reach(d, d2) {
-                            Some(r) => d = r,
-                            None => return,
-                        }
-                    }
-                    let pair = [k, j];
-                    pending.push((
-                        Candidate {
-                            kind: PairKind::VertexEdge,
-                            pair,
-                        },
-                        d,
-                    ));
-                });
-        }
-        // Particle–particle, through the hash grid.
+        // Particle–particle, through the hash grid (its pairs come sorted).
         if self.isolated.len() > 1 {
             for (b, &k) in self.iso_boxes.iter_mut().zip(&self.isolated) {
                 *b = self.vert_boxes[k as usize];
@@ -691,31 +631,134 @@ impl CollisionGroup {
             }
             self.iso_pairs = iso_pairs;
         }
-        // Vertex–collider.
-        for c in 0..self.colliders.len() {
-            let cb = self.collider_boxes[c];
-            let rc = self.colliders[c].thickness;
-            for i in 0..self.verts.len() {
-                let vo = self.vert_obj[i];
-                if inv_mass[self.verts[i] as usize] > 0.0
-                    && self.vert_boxes[i].overlaps(&cb)
-                    && self.collides_with_collider(vo, c as u32)
-                {
-                    let pair = [c as u32, i as u32];
-                    let d = self.radius(vo) + rc;
+        // Particle–curve edge.
+        for &k in &self.isolated {
+            let i = k as usize;
+            let p = self.verts[i];
+            let po = self.vert_obj[i];
+            let from = pending.len();
+            let at_rest = Aabb::of_points(&[rest[p as usize]], 0.0);
+            self.edge_bvh
+                .query(&self.vert_boxes[i], &self.edge_boxes, &mut stack, |j| {
+                    let f = self.edges[j as usize];
+                    let fo = self.edge_obj[j as usize];
+                    if !self.edge_curve[j as usize]
+                        || f.contains(&p)
+                        || !self.objects_may_collide(po, fo)
+                        || Self::all_kinematic(&[p, f[0], f[1]], inv_mass)
+                    {
+                        return;
+                    }
+                    let mut d = self.radius(po) + self.radius(fo);
+                    if po == fo {
+                        let gap2 = at_rest.distance_squared(&self.edge_rest_boxes[j as usize]);
+                        let exact = || {
+                            let [a, b] = f.map(|v| rest[v as usize]);
+                            distance::point_segment_closest(rest[p as usize], a, b).1
+                        };
+                        match same_object(d, gap2, &exact) {
+                            Some(r) => d = r,
+                            None => return,
+                        }
+                    }
+                    let pair = [k, j];
                     pending.push((
                         Candidate {
-                            kind: PairKind::Collider,
+                            kind: PairKind::VertexEdge,
                             pair,
                         },
                         d,
                     ));
-                }
+                });
+            sort_tail(&mut pending, from);
+        }
+        // Vertex–face.
+        if !self.faces.is_empty() {
+            for i in 0..self.verts.len() {
+                let p = self.verts[i];
+                let po = self.vert_obj[i];
+                let from = pending.len();
+                let at_rest = Aabb::of_points(&[rest[p as usize]], 0.0);
+                self.face_bvh
+                    .query(&self.vert_boxes[i], &self.face_boxes, &mut stack, |f| {
+                        let tri = self.faces[f as usize];
+                        let fo = self.face_obj[f as usize];
+                        if tri.contains(&p) || !self.objects_may_collide(po, fo) {
+                            return;
+                        }
+                        if Self::all_kinematic(&[p, tri[0], tri[1], tri[2]], inv_mass) {
+                            return;
+                        }
+                        let mut d = self.radius(po) + self.radius(fo);
+                        if po == fo {
+                            let gap2 = at_rest.distance_squared(&self.face_rest_boxes[f as usize]);
+                            let exact = || {
+                                let [a, b, c] = tri.map(|k| rest[k as usize]);
+                                distance::point_triangle_closest(rest[p as usize], a, b, c).1
+                            };
+                            match same_object(d, gap2, &exact) {
+                                Some(r) => d = r,
+                                None => return,
+                            }
+                        }
+                        let pair = [i as u32, f];
+                        pending.push((
+                            Candidate {
+                                kind: PairKind::VertexFace,
+                                pair,
+                            },
+                            d,
+                        ));
+                    });
+                sort_tail(&mut pending, from);
             }
         }
-        // The colliders' feature points against faces and edges, feature edges against
-        // edges. The trees' boxes are grown by each primitive's radius and margin; the query
-        // box by the collider's; then the Euclidean gap between the boxes must be within
+        // Edge–edge.
+        for i in 0..self.edges.len() {
+            let e = self.edges[i];
+            let eo = self.edge_obj[i];
+            let from = pending.len();
+            self.edge_bvh
+                .query(&self.edge_boxes[i], &self.edge_boxes, &mut stack, |j| {
+                    if j as usize <= i {
+                        return;
+                    }
+                    let f = self.edges[j as usize];
+                    let fo = self.edge_obj[j as usize];
+                    if f.contains(&e[0]) || f.contains(&e[1]) || !self.objects_may_collide(eo, fo) {
+                        return;
+                    }
+                    if Self::all_kinematic(&[e[0], e[1], f[0], f[1]], inv_mass) {
+                        return;
+                    }
+                    let mut d = self.radius(eo) + self.radius(fo);
+                    if eo == fo {
+                        let gap2 = self.edge_rest_boxes[i]
+                            .distance_squared(&self.edge_rest_boxes[j as usize]);
+                        let exact = || {
+                            let [a, b] = e.map(|v| rest[v as usize]);
+                            let [c, g] = f.map(|v| rest[v as usize]);
+                            distance::segment_segment_closest(a, b, c, g).2
+                        };
+                        match same_object(d, gap2, &exact) {
+                            Some(r) => d = r,
+                            None => return,
+                        }
+                    }
+                    let pair = [i as u32, j];
+                    pending.push((
+                        Candidate {
+                            kind: PairKind::EdgeEdge,
+                            pair,
+                        },
+                        d,
+                    ));
+                });
+            sort_tail(&mut pending, from);
+        }
+        // The colliders' feature points against faces, then against edges, and feature edges
+        // against edges. The trees' boxes are grown by each primitive's radius and margin; the
+        // query box by the collider's; then the Euclidean gap between the boxes must be within
         // the collider's radius and margin (a sphere's centre meets only the faces near its
         // surface, not every face in its bounding cube).
         for f in 0..self.feat_points.len() {
@@ -723,9 +766,9 @@ impl CollisionGroup {
             let rc = self.collider_radius[c as usize];
             let reach = rc + margin(rc);
             let tight = self.feat_point_boxes[f];
-            let query = tight.grow(reach);
+            let from = pending.len();
             self.face_bvh
-                .query(&query, &self.face_boxes, &mut stack, |j| {
+                .query(&tight.grow(reach), &self.face_boxes, &mut stack, |j| {
                     let fo = self.face_obj[j as usize];
                     let tri = self.faces[j as usize];
                     if !self.collides_with_collider(fo, c)
@@ -744,8 +787,16 @@ impl CollisionGroup {
                         d,
                     ));
                 });
+            sort_tail(&mut pending, from);
+        }
+        for f in 0..self.feat_points.len() {
+            let c = self.feat_points[f].0;
+            let rc = self.collider_radius[c as usize];
+            let reach = rc + margin(rc);
+            let tight = self.feat_point_boxes[f];
+            let from = pending.len();
             self.edge_bvh
-                .query(&query, &self.edge_boxes, &mut stack, |j| {
+                .query(&tight.grow(reach), &self.edge_boxes, &mut stack, |j| {
                     let eo = self.edge_obj[j as usize];
                     if !self.edge_point_tests[j as usize]
                         || !self.collides_with_collider(eo, c)
@@ -764,15 +815,16 @@ impl CollisionGroup {
                         d,
                     ));
                 });
+            sort_tail(&mut pending, from);
         }
         for f in 0..self.feat_edges.len() {
             let c = self.feat_edges[f].0;
             let rc = self.collider_radius[c as usize];
             let reach = rc + margin(rc);
             let tight = self.feat_edge_boxes[f];
-            let query = tight.grow(reach);
+            let from = pending.len();
             self.edge_bvh
-                .query(&query, &self.edge_boxes, &mut stack, |j| {
+                .query(&tight.grow(reach), &self.edge_boxes, &mut stack, |j| {
                     let eo = self.edge_obj[j as usize];
                     if !self.collides_with_collider(eo, c)
                         || Self::all_kinematic(&self.edges[j as usize], inv_mass)
@@ -790,8 +842,12 @@ impl CollisionGroup {
                         d,
                     ));
                 });
+            sort_tail(&mut pending, from);
         }
-        pending.sort_unstable_by_key(|p| p.0);
+        debug_assert!(
+            pending.windows(2).all(|w| w[0].0 < w[1].0),
+            "candidates out of order"
+        );
         self.candidates.clear();
         self.reach.clear();
         for &(c, d) in &pending {
