@@ -305,11 +305,9 @@ impl ConstraintGroup for StretchGroup {
         let x = Positions(p.x.as_mut_ptr());
         let material = self.material;
         let threads = rayon::current_num_threads();
-        let parallel = |len: usize, independent: bool| {
-            independent && threads > 1 && len >= PARALLEL_MIN_EDGES
-        };
-        let (ids, rest, lambda, batches) =
-            (&self.ids, &self.rest, &mut self.lambda, &self.batches);
+        let parallel =
+            |len: usize, independent: bool| independent && threads > 1 && len >= PARALLEL_MIN_EDGES;
+        let (ids, rest, lambda, batches) = (&self.ids, &self.rest, &mut self.lambda, &self.batches);
         let mut pass = move || {
             for (range, independent) in batches {
                 let ids = &ids[range.clone()];
