@@ -60,10 +60,10 @@
 //! covers its particles at `x0` and `x`, grown by its thickness and a margin
 //! (`0.1 r + 0.1 mm`) — built once over the rest shape and **refit** every substep, and a
 //! spatial hash grid over the unconnected particles. The candidate pairs are collected once
-//! per substep (`begin_substep`) and sorted: deterministic. The solve moves positions; before
-//! every pass each primitive's tight swept box is checked against the box its candidates were
-//! found with, and the broad phase is run again if any escaped — the contact set may grow,
-//! but no pair is ever skipped.
+//! per substep (`begin_substep`), in sorted order: deterministic. The solve moves positions;
+//! before every pass each primitive's tight swept box is checked against the box its
+//! candidates were found with, and the broad phase is run again if any escaped — the contact
+//! set may grow, but no pair is ever skipped.
 //!
 //! ## Narrow phase ([`ccd`], [`distance`])
 //!
