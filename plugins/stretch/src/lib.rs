@@ -77,7 +77,8 @@
 //! overlap the square roots and divisions of consecutive edges instead of waiting for each
 //! position write. On a 128 × 128 cloth this halves the time of a pass; the residual after a
 //! fixed number of passes is a little higher than in the scene's order in some scenes, and
-//! lower at equal time. The colours are also the independent sets a threaded projection needs.
+//! lower at equal time. The colours are also the independent sets the threaded projection splits
+//! over its threads (bit-identical for any thread count; see [`spin`]).
 //!
 //! ## Residual
 //!
@@ -100,6 +101,7 @@
 pub mod distance;
 pub mod group;
 pub mod hierarchy;
+pub mod spin;
 pub mod tether;
 
 #[cfg(test)]
