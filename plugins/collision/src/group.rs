@@ -537,6 +537,56 @@ impl CollisionGroup {
         ids.iter().all(|&i| inv_mass[i as usize] == 0.0)
     }
 
+    /// The candidates of one collider feature `[feature, collider]` (with bounding box
+    /// `tight`) against the faces (`faces`) or the edges: the trees' boxes are grown by each
+    /// primitive's radius and margin, the query box by the collider's; then the Euclidean gap
+    /// between the boxes must be within the collider's radius and margin (a sphere's centre
+    /// meets only the faces near its surface, not every face in its bounding cube). Point
+    /// features skip edges whose vertex tests are off.
+    #[allow(clippy::too_many_arguments)]
+    fn feature_candidates(
+        &self,
+        kind: PairKind,
+        [f, c]: [u32; 2],
+        tight: Aabb,
+        faces: bool,
+        inv_mass: &[f64],
+        pending: &mut Vec<(Candidate, f64)>,
+        stack: &mut Vec<u32>,
+    ) {
+        let rc = self.collider_radius[c as usize];
+        let reach = rc + margin(rc);
+        let (bvh, boxes) = if faces {
+            (&self.face_bvh, &self.face_boxes)
+        } else {
+            (&self.edge_bvh, &self.edge_boxes)
+        };
+        bvh.query(&tight.grow(reach), boxes, stack, |j| {
+            let (object, kinematic) = if faces {
+                let tri = self.faces[j as usize];
+                (
+                    self.face_obj[j as usize],
+                    Self::all_kinematic(&tri, inv_mass),
+                )
+            } else {
+                let points_only_where_tested =
+                    kind == PairKind::FeaturePointEdge && !self.edge_point_tests[j as usize];
+                let edge = self.edges[j as usize];
+                (
+                    self.edge_obj[j as usize],
+                    points_only_where_tested || Self::all_kinematic(&edge, inv_mass),
+                )
+            };
+            if kinematic
+                || !self.collides_with_collider(object, c)
+                || tight.distance_squared(&boxes[j as usize]) > reach * reach
+            {
+                return;
+            }
+            pending.push((Candidate { kind, pair: [f, j] }, rc + self.radius(object)));
+        });
+    }
+
     /// Refits the trees to the swept boxes over `[x0, x]` (grown by a margin) and collects the
     /// candidate pairs with their contact distances, sorted; remaps the existing contacts onto
     /// them. The pairs are generated in their sorted order — kinds in [`PairKind`] order, the
@@ -757,92 +807,40 @@ impl CollisionGroup {
             sort_tail(&mut pending, from);
         }
         // The colliders' feature points against faces, then against edges, and feature edges
-        // against edges. The trees' boxes are grown by each primitive's radius and margin; the
-        // query box by the collider's; then the Euclidean gap between the boxes must be within
-        // the collider's radius and margin (a sphere's centre meets only the faces near its
-        // surface, not every face in its bounding cube).
-        for f in 0..self.feat_points.len() {
-            let c = self.feat_points[f].0;
-            let rc = self.collider_radius[c as usize];
-            let reach = rc + margin(rc);
-            let tight = self.feat_point_boxes[f];
-            let from = pending.len();
-            self.face_bvh
-                .query(&tight.grow(reach), &self.face_boxes, &mut stack, |j| {
-                    let fo = self.face_obj[j as usize];
-                    let tri = self.faces[j as usize];
-                    if !self.collides_with_collider(fo, c)
-                        || Self::all_kinematic(&tri, inv_mass)
-                        || tight.distance_squared(&self.face_boxes[j as usize]) > reach * reach
-                    {
-                        return;
-                    }
-                    let pair = [f as u32, j];
-                    let d = rc + self.radius(fo);
-                    pending.push((
-                        Candidate {
-                            kind: PairKind::FeatureFace,
-                            pair,
-                        },
-                        d,
-                    ));
-                });
-            sort_tail(&mut pending, from);
-        }
-        for f in 0..self.feat_points.len() {
-            let c = self.feat_points[f].0;
-            let rc = self.collider_radius[c as usize];
-            let reach = rc + margin(rc);
-            let tight = self.feat_point_boxes[f];
-            let from = pending.len();
-            self.edge_bvh
-                .query(&tight.grow(reach), &self.edge_boxes, &mut stack, |j| {
-                    let eo = self.edge_obj[j as usize];
-                    if !self.edge_point_tests[j as usize]
-                        || !self.collides_with_collider(eo, c)
-                        || Self::all_kinematic(&self.edges[j as usize], inv_mass)
-                        || tight.distance_squared(&self.edge_boxes[j as usize]) > reach * reach
-                    {
-                        return;
-                    }
-                    let pair = [f as u32, j];
-                    let d = rc + self.radius(eo);
-                    pending.push((
-                        Candidate {
-                            kind: PairKind::FeaturePointEdge,
-                            pair,
-                        },
-                        d,
-                    ));
-                });
-            sort_tail(&mut pending, from);
-        }
-        for f in 0..self.feat_edges.len() {
-            let c = self.feat_edges[f].0;
-            let rc = self.collider_radius[c as usize];
-            let reach = rc + margin(rc);
-            let tight = self.feat_edge_boxes[f];
-            let from = pending.len();
-            self.edge_bvh
-                .query(&tight.grow(reach), &self.edge_boxes, &mut stack, |j| {
-                    let eo = self.edge_obj[j as usize];
-                    if !self.collides_with_collider(eo, c)
-                        || Self::all_kinematic(&self.edges[j as usize], inv_mass)
-                        || tight.distance_squared(&self.edge_boxes[j as usize]) > reach * reach
-                    {
-                        return;
-                    }
-                    let pair = [f as u32, j];
-                    let d = rc + self.radius(eo);
-                    pending.push((
-                        Candidate {
-                            kind: PairKind::FeatureEdgeEdge,
-                            pair,
-                        },
-                        d,
-                    ));
-                });
-            sort_tail(&mut pending, from);
+        // against edges.
+        for (kind, points, boxes, faces) in [
+            (PairKind::FeatureFace, true, &self.feat_point_boxes, true),
+            (
+                PairKind::FeaturePointEdge,
+                true,
+                &self.feat_point_boxes,
+                false,
+            ),
+            (
+                PairKind::FeatureEdgeEdge,
+                false,
+                &self.feat_edge_boxes,
+                false,
+            ),
+        ] {
+            for (f, tight) in boxes.iter().enumerate() {
+                let c = if points {
+                    self.feat_points[f].0
+                } else {
+                    self.feat_edges[f].0
+                };
+                let from = pending.len();
+                self.feature_candidates(
+                    kind,
+                    [f as u32, c],
+                    *tight,
+                    faces,
+                    inv_mass,
+                    &mut pending,
+                    &mut stack,
+                );
+                sort_tail(&mut pending, from);
+            }
         }
         debug_assert!(
             pending.windows(2).all(|w| w[0].0 < w[1].0),
