@@ -103,3 +103,20 @@ pub fn simulation(text: &str, extra: &[PathBuf]) -> Simulation {
     let reg = registry(&dirs);
     Simulation::build(&scene(text), &reg).unwrap_or_else(|e| panic!("build: {e}"))
 }
+
+/// The particle range of object `name`.
+pub fn particles_of(sim: &Simulation, name: &str) -> std::ops::Range<usize> {
+    let o = sim.object(name).expect("object");
+    o.first as usize..(o.first + o.count) as usize
+}
+
+/// The triangles of object `name` at the current positions.
+pub fn triangles(sim: &Simulation, name: &str) -> Vec<[glam::DVec3; 3]> {
+    let x = sim.positions();
+    sim.object(name)
+        .expect("object")
+        .triangles
+        .iter()
+        .map(|t| t.map(|i| x[i as usize]))
+        .collect()
+}

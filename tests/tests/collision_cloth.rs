@@ -29,11 +29,6 @@ fn run(sim: &mut Simulation, frames: u32, mut check: impl FnMut(&Simulation, u32
     }
 }
 
-fn particles_of(sim: &Simulation, name: &str) -> std::ops::Range<usize> {
-    let o = sim.object(name).expect("object");
-    o.first as usize..(o.first + o.count) as usize
-}
-
 /// Number of pairs of triangles (of all objects) that share no vertex and intersect, by the
 /// exact test. Broad phase: sort by the boxes' lower x and sweep.
 pub fn intersecting_triangle_pairs(sim: &Simulation) -> usize {

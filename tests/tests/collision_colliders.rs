@@ -26,17 +26,6 @@ fn run(sim: &mut Simulation, frames: u32, mut check: impl FnMut(&Simulation)) {
     }
 }
 
-/// Triangles of an object as positions.
-fn triangles(sim: &Simulation, name: &str) -> Vec<[DVec3; 3]> {
-    let x = sim.positions();
-    sim.object(name)
-        .expect("object")
-        .triangles
-        .iter()
-        .map(|t| t.map(|i| x[i as usize]))
-        .collect()
-}
-
 /// Distance between a segment and a triangle that do not intersect: the closest pair is an
 /// end of the segment against the triangle, or the segment against an edge.
 fn segment_triangle_distance(a: DVec3, b: DVec3, t: [DVec3; 3]) -> f64 {

@@ -25,22 +25,6 @@ fn run(sim: &mut Simulation, frames: u32, mut check: impl FnMut(&Simulation)) {
     }
 }
 
-fn particles_of(sim: &Simulation, name: &str) -> std::ops::Range<usize> {
-    let o = sim.object(name).expect("object");
-    o.first as usize..(o.first + o.count) as usize
-}
-
-/// Triangles of an object as positions.
-fn triangles(sim: &Simulation, name: &str) -> Vec<[DVec3; 3]> {
-    let x = sim.positions();
-    sim.object(name)
-        .expect("object")
-        .triangles
-        .iter()
-        .map(|t| t.map(|i| x[i as usize]))
-        .collect()
-}
-
 /// The signed distance of `p` to the closest triangle of `tris` (positive on the side its
 /// winding's normal points to), and the distance itself.
 fn signed_distance_to(p: DVec3, tris: &[[DVec3; 3]]) -> f64 {

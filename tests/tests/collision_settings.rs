@@ -13,11 +13,6 @@ mod distance;
 use nucleus_core::Simulation;
 use nucleus_tests::*;
 
-fn particles_of(sim: &Simulation, name: &str) -> std::ops::Range<usize> {
-    let o = sim.object(name).expect("object");
-    o.first as usize..(o.first + o.count) as usize
-}
-
 fn run_frames(sim: &mut Simulation, frames: u32) {
     for _ in 0..frames {
         sim.step_frame().unwrap_or_else(|e| panic!("{e}"));

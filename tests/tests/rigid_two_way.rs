@@ -26,17 +26,6 @@ use glam::DVec3;
 use nucleus_core::Simulation;
 use nucleus_tests::*;
 
-/// The triangles of object `name` at the current positions.
-fn triangles(sim: &Simulation, name: &str) -> Vec<[DVec3; 3]> {
-    let x = sim.positions();
-    sim.object(name)
-        .expect("object")
-        .triangles
-        .iter()
-        .map(|t| t.map(|i| x[i as usize]))
-        .collect()
-}
-
 /// Checks, after a substep, that the ball is nowhere through the net; returns the net's
 /// deepest point.
 fn check_not_through(sim: &Simulation, net: std::ops::Range<usize>, at: &str) -> f64 {
