@@ -5,6 +5,11 @@
 //! view lists every 1-simplex). Stretch and compression are resisted separately, as in Maya's
 //! nCloth: cloth buckles rather than compresses.
 //!
+//! Two more kinds help hard stretch converge, each only where a scene asks for it: `tether`
+//! ([`tether`]: long-range attachments to the pins, Kim et al. 2012) and `stretch_hierarchy`
+//! ([`hierarchy`]: hierarchical position-based dynamics, Müller 2008). Their costs and what
+//! they buy on the peers' drape are measured in `docs/peers.md` and the README.
+//!
 //! ## The constraint
 //!
 //! For an edge `(i, j)` with rest length `l` (the scene's rest-shape length times
