@@ -120,3 +120,14 @@ pub fn triangles(sim: &Simulation, name: &str) -> Vec<[glam::DVec3; 3]> {
         .map(|t| t.map(|i| x[i as usize]))
         .collect()
 }
+
+/// Runs `frames` frames substep by substep, calling `check(sim)` after every substep.
+pub fn run(sim: &mut Simulation, frames: u32, mut check: impl FnMut(&Simulation)) {
+    for _ in 0..frames {
+        for s in 0..sim.settings.substeps {
+            sim.substep(s).unwrap_or_else(|e| panic!("step: {e}"));
+            check(sim);
+        }
+        sim.frame += 1;
+    }
+}

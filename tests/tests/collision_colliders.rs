@@ -15,17 +15,6 @@ use glam::{DQuat, DVec3};
 use nucleus_core::Simulation;
 use nucleus_tests::*;
 
-/// Runs `frames` frames substep by substep, calling `check(sim)` after every substep.
-fn run(sim: &mut Simulation, frames: u32, mut check: impl FnMut(&Simulation)) {
-    for _ in 0..frames {
-        for s in 0..sim.settings.substeps {
-            sim.substep(s).unwrap_or_else(|e| panic!("step: {e}"));
-            check(sim);
-        }
-        sim.frame += 1;
-    }
-}
-
 /// Distance between a segment and a triangle that do not intersect: the closest pair is an
 /// end of the segment against the triangle, or the segment against an edge.
 fn segment_triangle_distance(a: DVec3, b: DVec3, t: [DVec3; 3]) -> f64 {

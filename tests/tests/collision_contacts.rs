@@ -11,19 +11,7 @@
 mod distance;
 
 use glam::DVec3;
-use nucleus_core::Simulation;
 use nucleus_tests::*;
-
-/// Runs `frames` frames substep by substep, calling `check(sim)` after every substep.
-fn run(sim: &mut Simulation, frames: u32, mut check: impl FnMut(&Simulation)) {
-    for _ in 0..frames {
-        for s in 0..sim.settings.substeps {
-            sim.substep(s).unwrap_or_else(|e| panic!("step: {e}"));
-            check(sim);
-        }
-        sim.frame += 1;
-    }
-}
 
 /// The signed distance of `p` to the closest triangle of `tris` (positive on the side its
 /// winding's normal points to), and the distance itself.
