@@ -103,6 +103,7 @@
 //!   only exactly satisfied in the limit of passes: raise the importance (or the substeps)
 //!   for cloth that must not stretch at all.
 
+pub mod chebyshev;
 pub mod distance;
 pub mod group;
 pub mod hierarchy;

@@ -233,7 +233,10 @@ fn kind_describes_itself() {
             "compliance",
             "compression_compliance",
             "rest_length_scale",
-            "damping"
+            "damping",
+            "chebyshev_rho",
+            "chebyshev_delay",
+            "chebyshev_gamma"
         ]
     );
     for p in kind.params.iter() {
