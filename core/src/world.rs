@@ -325,13 +325,16 @@ pub struct Simulation {
     pub frame: u64,
 }
 
-/// Whether every component is finite (vectorisable: `x·0` is 0 for finite `x`, NaN otherwise).
+/// Whether every component is finite: no component has an all-ones exponent (NaN or ±∞).
+/// An OR over integers, which the compiler vectorises; a sum of `x·0` (the previous form) is
+/// one long chain of dependent floating-point additions, and the check runs after every group
+/// call: it took 20 % of a substep of the 128 × 128 drape on two threads.
 pub fn all_finite(xs: &[[f64; 3]]) -> bool {
-    let s: f64 = xs
-        .iter()
-        .map(|p| p[0] * 0.0 + p[1] * 0.0 + p[2] * 0.0)
-        .sum();
-    s == 0.0
+    const EXPONENT: u64 = 0x7ff0_0000_0000_0000;
+    let bad = xs.as_flattened().iter().fold(0u64, |bad, v| {
+        bad | u64::from(v.to_bits() & EXPONENT == EXPONENT)
+    });
+    bad == 0
 }
 
 fn toml_to_json(v: &toml::Value) -> serde_json::Value {
@@ -852,4 +855,37 @@ impl Simulation {
 
 fn scene_source(scene: &Scene) -> &str {
     scene.source()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::all_finite;
+
+    #[test]
+    fn all_finite_finds_one_nan_or_infinity_anywhere_and_accepts_every_finite_value() {
+        let finite = [
+            0.0,
+            -0.0,
+            1.0,
+            -1e300,
+            f64::MAX,
+            f64::MIN,
+            f64::MIN_POSITIVE,
+            5e-324,
+        ];
+        let mut xs: Vec<[f64; 3]> = (0..1001)
+            .map(|k| [finite[k % 8], finite[(k + 3) % 8], 2.0])
+            .collect();
+        assert!(all_finite(&xs));
+        assert!(all_finite(&[]));
+        for bad in [f64::NAN, -f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+            for (k, c) in [(0, 0), (500, 1), (1000, 2), (3, 2)] {
+                let keep = xs[k][c];
+                xs[k][c] = bad;
+                assert!(!all_finite(&xs), "{bad} at [{k}][{c}]");
+                xs[k][c] = keep;
+            }
+        }
+        assert!(all_finite(&xs));
+    }
 }
