@@ -14,6 +14,9 @@ and OUT_DIR/run.json, and prints one JSON line with the same fields as the peers
   the last `window` frames (F-window+1..F) -> strain_max, strain_rms; the largest per-frame max
   -> strain_max_peak; the mean over the same frames of the max strain of the diagonals
   (i,j)-(i+1,j+1) -> diag_strain_max;
+* where the max sits: per frame, the grid distance (Chebyshev, in edges) of the max-strain
+  edge from the nearer pinned corner -> strain_max_ring_median (its median over the window)
+  and strain_max_near_pin_share (the share of frames with the max within 2 edges of a pin);
 * min_height: lowest y at frame F; exploded: NaN anywhere or |x| > 100 m at frame F.
 
 Rest lengths come from frame 0. `key=value` arguments are copied into the JSON line (numbers
@@ -80,16 +83,32 @@ class Strain:
 
     def frame(self, x):
         """(max, rms) of the strain at positions x (flat list)."""
+        mx, rms, _ = self.frame_at(x)
+        return mx, rms
+
+    def frame_at(self, x):
+        """(max, rms, the edge (a, b) with the max strain) at positions x (flat list)."""
         if np is not None:
             p = np.asarray(x).reshape(-1, 3)
             s = np.abs(np.linalg.norm(p[self.a] - p[self.b], axis=1) - self.l0) / self.l0
-            return float(np.max(s)), float(np.sqrt(np.mean(s * s)))
-        mx, sq = 0.0, 0.0
+            k = int(np.argmax(s))
+            return float(s[k]), float(np.sqrt(np.mean(s * s))), self.pairs[k]
+        mx, sq, at = -1.0, 0.0, None
         for (a, b), l0 in zip(self.pairs, self.l0):
             s = abs(self._length(x, a, b) - l0) / l0
-            mx = max(mx, s)
+            if s > mx:
+                mx, at = s, (a, b)
             sq += s * s
-        return mx, math.sqrt(sq / len(self.pairs))
+        return mx, math.sqrt(sq / len(self.pairs)), at
+
+
+def ring_from_pins(N, a, b):
+    """How many grid steps (Chebyshev distance) the nearer end of edge (a, b) lies from the
+    nearer pinned corner, (0, 0) or (0, N-1): 0 for the edges at a pin."""
+    def ring(v):
+        i, j = divmod(v, N)
+        return min(max(i, j), max(i, N - 1 - j))
+    return min(ring(a), ring(b))
 
 
 def mean(xs):
@@ -131,11 +150,12 @@ def metrics(out_dir, N, frames, window):
     struct, diag = edges(N)
     s_struct, s_diag = Strain(rest, struct), Strain(rest, diag)
     window = min(window, frames)
-    maxs, rmss, dmaxs = [], [], []
+    maxs, rmss, dmaxs, rings = [], [], [], []
     last = None
     for k in range(frames - window + 1, frames + 1):
         x = read_obj_vertices(os.path.join(out_dir, f"frame_{k:04d}.obj"))
-        mx, rms = s_struct.frame(x)
+        mx, rms, at = s_struct.frame_at(x)
+        rings.append(ring_from_pins(N, *at))
         maxs.append(mx)
         rmss.append(rms)
         dmaxs.append(s_diag.frame(x)[0])
@@ -155,6 +175,8 @@ def metrics(out_dir, N, frames, window):
         "strain_rms": clean(mean(rmss)),
         "strain_max_peak": clean(max(maxs)),
         "diag_strain_max": clean(mean(dmaxs)),
+        "strain_max_ring_median": median(rings),
+        "strain_max_near_pin_share": sum(1 for r in rings if r <= 2) / len(rings),
         "min_height": clean(min(last[1::3])),
         "exploded": (not finite) or max(abs(c) for c in last) > 100.0,
     }

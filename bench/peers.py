@@ -453,8 +453,9 @@ def main():
         + ". Their models differ (PBD, XPBD, soft constraints, VBD): see the caveats in the peers' README.",
         "* Metrics, identical for every solver: time = mean step wall time per frame of frames 2..120; "
         "strain = |l - l0| / l0 over the 2N(N-1) structural edges, per frame max and RMS, averaged over "
-        "the last 60 frames (the max sits at the pinned corners, a point-load singularity; RMS describes "
-        "the cloth as a whole).",
+        "the last 60 frames (RMS describes the cloth as a whole; the max sits at the pinned corners, a "
+        "point-load singularity, while the solution is loose, and in the folds of the swinging cloth once "
+        "it is tight: see bench/README.md).",
         "",
         "## Matched strain",
         "",

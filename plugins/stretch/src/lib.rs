@@ -7,8 +7,10 @@
 //!
 //! Two more kinds help hard stretch converge, each only where a scene asks for it: `tether`
 //! ([`tether`]: long-range attachments to the pins, Kim et al. 2012) and `stretch_hierarchy`
-//! ([`hierarchy`]: hierarchical position-based dynamics, Müller 2008). Their costs and what
-//! they buy on the peers' drape are measured in `docs/peers.md` and the README.
+//! ([`hierarchy`]: hierarchical position-based dynamics, Müller 2008), and `stretch` itself
+//! can accelerate its passes ([Chebyshev](#chebyshev-acceleration-optional)). Their costs
+//! and what they buy on the peers' drape are measured in `docs/peers.md`, below and in the
+//! README.
 //!
 //! ## The constraint
 //!
@@ -84,6 +86,30 @@
 //! fixed number of passes is a little higher than in the scene's order in some scenes, and
 //! lower at equal time. The colours are also the independent sets the threaded projection splits
 //! over its threads (bit-identical for any thread count; see [`spin`]).
+//!
+//! ## Chebyshev acceleration (optional)
+//!
+//! `chebyshev_rho > 0` accelerates the passes *within* a substep with the Chebyshev
+//! semi-iterative method of Wang 2015 ([`chebyshev`]): after each pass beyond the first
+//! `chebyshev_delay`, the group's particles are moved to a weighted combination of the pass's
+//! result and the two previous iterates. It only acts with more passes per substep than the
+//! delay, and costs two copies of the group's positions per pass. Measured on the 64 × 64
+//! drape (one thread; `nucleus run scenes/drape.toml --set 'objects.0.grid.resolution=[64,64]'
+//! --set constraints.0.params.chebyshev_rho=ρ --substeps S --iterations I`, the peers'
+//! metrics):
+//!
+//! | S × I | ms/frame | ρ = 0 (off) max / RMS | ρ = 0.9 | ρ = 0.95 |
+//! |---|---:|---|---|---|
+//! | 10 × 8 | 16 | 42.6 % / 2.30 % | 21.5 % / 1.18 % | 19.9 % / 1.06 % |
+//! | 20 × 4 | 16 | 25.0 % / 1.28 % | 15.7 % / 0.82 % | 58 % / 7.4 % (unstable) |
+//! | 20 × 8 | 33 | 13.7 % / 0.70 % | 7.2 % / 0.39 % | 5.7 % / 0.31 % |
+//! | 40 × 4 | 33 | 7.7 % / 0.41 % | 4.9 % / 0.26 % | 58 % / 7.3 % (unstable) |
+//! | 80 × 1 | 18 | 7.8 % / 0.42 % | — | — |
+//! | 160 × 1 | 35 | 2.7 % / 0.16 % | — | — |
+//!
+//! It halves the strain at a given substeps × passes, but the same work spent on substeps
+//! (the last two rows) does better still, and `ρ` near 1 diverges with few passes. So it is
+//! off by default; it pays where passes cannot be traded for substeps.
 //!
 //! ## Residual
 //!
