@@ -131,3 +131,33 @@ pub fn run(sim: &mut Simulation, frames: u32, mut check: impl FnMut(&Simulation)
         sim.frame += 1;
     }
 }
+
+/// The peers' drape (`scenes/drape.toml`) as scene text: a 1 m cloth of `n × n` vertices in
+/// the plane y = 0, 1 kg, the two corners of row 0 pinned, gravity −9.81 m/s² along y, no
+/// damping, `frames` frames of `substeps` substeps × `iterations` passes, and `constraints`
+/// (TOML tables, written as given) acting on it.
+pub fn drape_text(
+    n: u32,
+    frames: u32,
+    substeps: u32,
+    iterations: u32,
+    constraints: &str,
+) -> String {
+    format!(
+        r#"
+[solver]
+frames = {frames}
+substeps = {substeps}
+iterations = {iterations}
+gravity = [0.0, -9.81, 0.0]
+[[objects]]
+name = "cloth"
+mass = 1.0
+pins = ["corners:row0"]
+[objects.grid]
+size = [1.0, 1.0]
+resolution = [{n}, {n}]
+plane = "xz"
+{constraints}"#
+    )
+}

@@ -8,27 +8,8 @@ use nucleus_tests::*;
 /// The drape of `scenes/drape.toml` at `n × n`, `substeps` × `passes`, with `params` for the
 /// stretch group.
 fn drape(n: u32, frames: u32, substeps: u32, passes: u32, params: &str) -> Simulation {
-    let text = format!(
-        r#"
-[solver]
-frames = {frames}
-substeps = {substeps}
-iterations = {passes}
-gravity = [0.0, -9.81, 0.0]
-[[objects]]
-name = "cloth"
-mass = 1.0
-pins = ["corners:row0"]
-[objects.grid]
-size = [1.0, 1.0]
-resolution = [{n}, {n}]
-plane = "xz"
-[[constraints]]
-kind = "stretch"
-params = {{ {params} }}
-"#
-    );
-    simulation(&text, &[])
+    let constraints = format!("[[constraints]]\nkind = \"stretch\"\nparams = {{ {params} }}\n");
+    simulation(&drape_text(n, frames, substeps, passes, &constraints), &[])
 }
 
 /// Mean over the last half of the frames of the stretch group's RMS strain, checking every

@@ -9,25 +9,8 @@ use nucleus_tests::*;
 
 /// The drape of `scenes/drape.toml` at `n × n`, 10 substeps, with `extra` constraint tables.
 fn drape(n: u32, frames: u32, extra: &str) -> Simulation {
-    let text = format!(
-        r#"
-[solver]
-frames = {frames}
-substeps = 10
-gravity = [0.0, -9.81, 0.0]
-[[objects]]
-name = "cloth"
-mass = 1.0
-pins = ["corners:row0"]
-[objects.grid]
-size = [1.0, 1.0]
-resolution = [{n}, {n}]
-plane = "xz"
-[[constraints]]
-kind = "stretch"
-{extra}"#
-    );
-    simulation(&text, &[])
+    let constraints = format!("[[constraints]]\nkind = \"stretch\"\n{extra}");
+    simulation(&drape_text(n, frames, 10, 1, &constraints), &[])
 }
 
 /// Mean over the last half of the frames of the stretch group's RMS strain.
