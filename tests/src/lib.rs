@@ -132,6 +132,25 @@ pub fn run(sim: &mut Simulation, frames: u32, mut check: impl FnMut(&Simulation)
     }
 }
 
+/// Steps every frame of `sim` (its `settings.frames`), calling `check(sim, frame)` after each,
+/// and returns the mean over the last half of the frames of group `group`'s RMS residual.
+pub fn mean_rms_residual(
+    sim: &mut Simulation,
+    group: usize,
+    mut check: impl FnMut(&Simulation, u32),
+) -> f64 {
+    let frames = sim.settings.frames;
+    let mut sum = 0.0;
+    for f in 0..frames {
+        sim.step_frame().unwrap_or_else(|e| panic!("step: {e}"));
+        check(sim, f);
+        if f >= frames / 2 {
+            sum += sim.residuals().unwrap_or_else(|e| panic!("residuals: {e}"))[group].rms;
+        }
+    }
+    sum / (frames - frames / 2) as f64
+}
+
 /// The peers' drape (`scenes/drape.toml`) as scene text: a 1 m cloth of `n × n` vertices in
 /// the plane y = 0, 1 kg, the two corners of row 0 pinned, gravity −9.81 m/s² along y, no
 /// damping, `frames` frames of `substeps` substeps × `iterations` passes, and `constraints`

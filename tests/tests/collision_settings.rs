@@ -28,6 +28,32 @@ fn y_range(sim: &Simulation, name: &str) -> (f64, f64) {
         })
 }
 
+/// A 0.3 m cloth of 5 × 5 vertices, flat at height `y` over the ground plane (y = 0), with hard
+/// stretch and a collision group with `params` (which give the plane as a collider).
+fn cloth_over_ground(y: f64, params: &str) -> Simulation {
+    let text = format!(
+        r#"
+[solver]
+frame_rate = 60.0
+substeps = 4
+[[objects]]
+name = "cloth"
+mass = 0.1
+[objects.grid]
+size = [0.3, 0.3]
+resolution = [5, 5]
+plane = "xz"
+origin = [-0.15, {y}, -0.15]
+[[constraints]]
+kind = "stretch"
+[[constraints]]
+kind = "collision"
+params = {{ {params} }}
+"#
+    );
+    simulation(&text, &[])
+}
+
 /// Two 0.4 m cloths of 6 × 6 vertices: `lower` pinned entirely at y = 0, `upper` falling
 /// from y = 0.05 at 2 m/s, offset so that no vertex is above another, and a collision group
 /// with `params`.
@@ -98,29 +124,15 @@ fn a_collider_only_stops_objects_sharing_one_of_its_layers() {
     // A cloth dropped on a plane on layer 2: on layer 1 it falls through, on layers 1 and 2
     // it lands.
     let scene = |cloth_layers: u32| {
-        format!(
-            r#"
-[solver]
-frame_rate = 60.0
-substeps = 4
-[[objects]]
-name = "cloth"
-mass = 0.1
-[objects.grid]
-size = [0.3, 0.3]
-resolution = [5, 5]
-plane = "xz"
-origin = [-0.15, 0.1, -0.15]
-[[constraints]]
-kind = "stretch"
-[[constraints]]
-kind = "collision"
-params = {{ layers = {cloth_layers}, colliders = [{{ type = "plane", point = [0.0, 0.0, 0.0], normal = [0.0, 1.0, 0.0], layers = 2 }}] }}
-"#
+        cloth_over_ground(
+            0.1,
+            &format!(
+                r#"layers = {cloth_layers}, colliders = [{{ type = "plane", point = [0.0, 0.0, 0.0], normal = [0.0, 1.0, 0.0], layers = 2 }}]"#
+            ),
         )
     };
-    let mut through = simulation(&scene(1), &[]);
-    let mut lands = simulation(&scene(3), &[]);
+    let mut through = scene(1);
+    let mut lands = scene(3);
     run_frames(&mut through, 30);
     run_frames(&mut lands, 30);
     assert!(y_range(&through, "cloth").1 < -0.5);
@@ -222,27 +234,12 @@ fn switching_a_primitive_off_lets_through_exactly_the_contacts_it_carries() {
     // A cloth meets the ground plane through its vertices only: with them off it falls
     // through; with its faces or edges off it still lands.
     let ground = |settings: &str| {
-        let text = format!(
-            r#"
-[solver]
-frame_rate = 60.0
-substeps = 4
-[[objects]]
-name = "cloth"
-mass = 0.1
-[objects.grid]
-size = [0.3, 0.3]
-resolution = [5, 5]
-plane = "xz"
-origin = [-0.15, 0.05, -0.15]
-[[constraints]]
-kind = "stretch"
-[[constraints]]
-kind = "collision"
-params = {{ objects_settings = {{ cloth = {{ {settings} }} }}, colliders = [{{ type = "plane", point = [0.0, 0.0, 0.0], normal = [0.0, 1.0, 0.0] }}] }}
-"#
+        let mut sim = cloth_over_ground(
+            0.05,
+            &format!(
+                r#"objects_settings = {{ cloth = {{ {settings} }} }}, colliders = [{{ type = "plane", point = [0.0, 0.0, 0.0], normal = [0.0, 1.0, 0.0] }}]"#
+            ),
         );
-        let mut sim = simulation(&text, &[]);
         run_frames(&mut sim, 30);
         y_range(&sim, "cloth").0
     };

@@ -15,15 +15,12 @@ fn drape(n: u32, frames: u32, substeps: u32, passes: u32, params: &str) -> Simul
 /// Mean over the last half of the frames of the stretch group's RMS strain, checking every
 /// position stays finite and the pins stay put.
 fn mean_rms_strain(mut sim: Simulation) -> f64 {
-    let frames = sim.settings.frames;
     let pins: Vec<usize> = (0..sim.particles.len())
         .filter(|&k| sim.particles.inv_mass[k] == 0.0)
         .collect();
     assert_eq!(pins.len(), 2);
     let pinned: Vec<_> = pins.iter().map(|&k| sim.positions()[k]).collect();
-    let mut sum = 0.0;
-    for f in 0..frames {
-        sim.step_frame().expect("step");
+    mean_rms_residual(&mut sim, 0, |sim, f| {
         assert!(
             sim.positions().iter().all(|p| p.is_finite()),
             "frame {f}: not finite"
@@ -31,11 +28,7 @@ fn mean_rms_strain(mut sim: Simulation) -> f64 {
         for (&k, &p) in pins.iter().zip(&pinned) {
             assert_eq!(sim.positions()[k], p, "pin {k} moved");
         }
-        if f >= frames / 2 {
-            sum += sim.residuals().expect("residuals")[0].rms;
-        }
-    }
-    sum / (frames - frames / 2) as f64
+    })
 }
 
 #[test]
