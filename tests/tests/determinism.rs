@@ -99,3 +99,61 @@ fn in_process_runs_match_to_the_bit() {
     let b = bits(simulation(&text, &[]));
     assert_eq!(a, b);
 }
+
+#[test]
+fn two_stretch_groups_and_two_simulations_at_once_give_the_bits_of_one_alone() {
+    // Two `stretch` groups share the plugin's one thread team; two simulations stepping at
+    // once contend for it, and a pass that finds it taken runs alone. 96 × 96: every colour
+    // is large enough to be split over the team.
+    let text = drape_text(
+        96,
+        3,
+        4,
+        1,
+        r#"
+[[constraints]]
+kind = "stretch"
+objects = ["cloth"]
+[[constraints]]
+kind = "stretch"
+objects = ["cloth"]
+params = { compliance = 1e-7 }
+"#,
+    );
+    let bits = |text: String| -> Vec<u64> {
+        let mut sim = simulation(&text, &[]);
+        for _ in 0..3 {
+            sim.step_frame().unwrap();
+        }
+        sim.particles
+            .x
+            .iter()
+            .flatten()
+            .map(|c| c.to_bits())
+            .collect()
+    };
+    let alone = bits(text.clone());
+    let (a, b) = std::thread::scope(|s| {
+        let a = s.spawn(|| bits(text.clone()));
+        let b = s.spawn(|| bits(text.clone()));
+        (a.join().unwrap(), b.join().unwrap())
+    });
+    assert!(
+        alone == a,
+        "the first of two simulations at once differs from one alone"
+    );
+    assert!(
+        alone == b,
+        "the second of two simulations at once differs from one alone"
+    );
+    let start = simulation(&text, &[]);
+    let moved = alone
+        .iter()
+        .zip(start.particles.x.iter().flatten())
+        .filter(|(p, q)| **p != q.to_bits())
+        .count();
+    assert!(
+        moved > 0,
+        "the cloth must have moved for the comparison to mean anything"
+    );
+}

@@ -117,9 +117,6 @@ pub struct StretchGroup {
     /// Consecutive index ranges of the batch, each flagged `true` if its edges share no
     /// particle (one colour) and may be projected in parallel.
     batches: Vec<(std::ops::Range<usize>, bool)>,
-    /// The threads that share the large colours, made at the first pass that needs them
-    /// (`RAYON_NUM_THREADS` or the machine's cores); `None` on one thread.
-    team: Option<spin::Team>,
     /// The Chebyshev acceleration of the passes, when `chebyshev_rho > 0`.
     chebyshev: Option<Chebyshev>,
 }
@@ -239,7 +236,6 @@ impl StretchGroup {
             material: params.material(),
             max_index: None,
             batches: Vec::new(),
-            team: None,
             chebyshev: None,
         };
         for &t in scene.targets.as_slice() {
@@ -379,15 +375,19 @@ impl ConstraintGroup for StretchGroup {
         } else {
             1
         };
-        if self.team.as_ref().map_or(1, spin::Team::parts) != threads {
-            self.team = (threads > 1).then(|| spin::Team::new(threads - 1));
-        }
+        // The large colours are shared by the plugin's team of threads, held for the whole
+        // pass (`RAYON_NUM_THREADS` or the machine's cores); none on one thread.
+        let mut team = if threads > 1 {
+            spin::shared(threads)
+        } else {
+            None
+        };
         let lambda = Lambdas(self.lambda.as_mut_ptr());
         for (range, independent) in &self.batches {
             let ids = &self.ids[range.clone()];
             let rest = &self.rest[range.clone()];
             let first = range.start;
-            match self.team.as_mut() {
+            match team.as_mut().and_then(|t| t.as_mut()) {
                 Some(team) if *independent && ids.len() >= PARALLEL_MIN_EDGES => {
                     let parts = team.parts();
                     team.run(&|part| {

@@ -85,7 +85,8 @@
 //! position write. On a 128 × 128 cloth this halves the time of a pass; the residual after a
 //! fixed number of passes is a little higher than in the scene's order in some scenes, and
 //! lower at equal time. The colours are also the independent sets the threaded projection splits
-//! over its threads (bit-identical for any thread count; see [`spin`]).
+//! over its threads (bit-identical for any thread count; see [`spin`]): one team of threads for
+//! the whole plugin, whatever the number of `stretch` groups.
 //!
 //! ## Chebyshev acceleration (optional)
 //!
