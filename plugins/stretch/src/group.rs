@@ -6,7 +6,7 @@ use nucleus_sdk::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::chebyshev::{Chebyshev, MAX_RHO};
-use crate::distance::{project_distance, EdgeMaterial};
+use crate::distance::{project_distance_hard, project_distance_with, EdgeMaterial, XpbdTerms};
 use crate::spin;
 
 /// Smallest valid `rest_length_scale`: the scale must be positive, and a bound that prints
@@ -165,15 +165,14 @@ unsafe impl Sync for Positions {}
 /// `x` points to at least `max index + 1` positions, valid for the duration of the call, and
 /// no other thread reads or writes the positions of these edges' particles meanwhile.
 #[allow(clippy::too_many_arguments)]
-unsafe fn project_edges(
+unsafe fn project_edges<const HARD: bool>(
     x: Positions,
     x0: &[DVec3],
     w: &[f64],
     ids: &[[u32; 2]],
     rest: &[f64],
     lambda: &mut [f64],
-    material: &EdgeMaterial,
-    h: f64,
+    terms: &XpbdTerms,
 ) {
     for ((&[i, j], &rest), lambda) in ids.iter().zip(rest).zip(lambda) {
         let (i, j) = (i as usize, j as usize);
@@ -182,15 +181,12 @@ unsafe fn project_edges(
         let (pi, pj) = unsafe { (x.0.add(i), x.0.add(j)) };
         // SAFETY: as above.
         let (xi, xj) = unsafe { (*pi, *pj) };
-        if let Some(c) = project_distance(
-            [xi, xj],
-            [x0[i], x0[j]],
-            [w[i], w[j]],
-            rest,
-            material,
-            *lambda,
-            h,
-        ) {
+        let c = if HARD {
+            project_distance_hard([xi, xj], [x0[i], x0[j]], [w[i], w[j]], rest)
+        } else {
+            project_distance_with([xi, xj], [x0[i], x0[j]], [w[i], w[j]], rest, terms, *lambda)
+        };
+        if let Some(c) = c {
             // SAFETY: as above.
             unsafe {
                 *pi = xi + c.dxi;
@@ -383,6 +379,13 @@ impl ConstraintGroup for StretchGroup {
             None
         };
         let lambda = Lambdas(self.lambda.as_mut_ptr());
+        // A hard material takes the kernel with the shorter dependency chain.
+        let terms = material.terms(h);
+        let kernel = if material.compliance == 0.0 && material.compression_compliance == 0.0 {
+            project_edges::<true>
+        } else {
+            project_edges::<false>
+        };
         for (range, independent) in &self.batches {
             let ids = &self.ids[range.clone()];
             let rest = &self.rest[range.clone()];
@@ -400,16 +403,7 @@ impl ConstraintGroup for StretchGroup {
                         // whole call, and the indices were checked above.
                         unsafe {
                             let lambda = lambda.slice(first + span.start, span.len());
-                            project_edges(
-                                x,
-                                x0,
-                                w,
-                                &ids[span.clone()],
-                                &rest[span],
-                                lambda,
-                                &material,
-                                h,
-                            )
+                            kernel(x, x0, w, &ids[span.clone()], &rest[span], lambda, &terms)
                         }
                     });
                 }
@@ -417,7 +411,7 @@ impl ConstraintGroup for StretchGroup {
                     // SAFETY: as above, on this thread only.
                     unsafe {
                         let lambda = lambda.slice(first, ids.len());
-                        project_edges(x, x0, w, ids, rest, lambda, &material, h)
+                        kernel(x, x0, w, ids, rest, lambda, &terms)
                     }
                 }
             }
