@@ -326,15 +326,20 @@ pub struct Simulation {
 }
 
 /// Whether every component is finite: no component has an all-ones exponent (NaN or ±∞).
-/// An OR over integers, which the compiler vectorises; a sum of `x·0` (the previous form) is
-/// one long chain of dependent floating-point additions, and the check runs after every group
-/// call: it took 20 % of a substep of the 128 × 128 drape on two threads.
+///
+/// The check runs after every group call, so it is written for speed: an OR over integers
+/// (a sum of `x·0` is one long chain of dependent floating-point additions), and without a
+/// 64-bit comparison, which the baseline x86-64 vector instructions lack: adding one to the
+/// exponent field carries into the sign bit exactly when the field is all ones. Measured on
+/// the 128 × 128 drape at 40 × 1 on two threads, the checks took 2.4 ms of a 15.9 ms frame in
+/// the comparison form.
 pub fn all_finite(xs: &[[f64; 3]]) -> bool {
     const EXPONENT: u64 = 0x7ff0_0000_0000_0000;
-    let bad = xs.as_flattened().iter().fold(0u64, |bad, v| {
-        bad | u64::from(v.to_bits() & EXPONENT == EXPONENT)
+    const EXPONENT_ONE: u64 = 0x0010_0000_0000_0000;
+    let carried = xs.as_flattened().iter().fold(0u64, |bad, v| {
+        bad | (v.to_bits() & EXPONENT).wrapping_add(EXPONENT_ONE)
     });
-    bad == 0
+    carried >> 63 == 0
 }
 
 fn toml_to_json(v: &toml::Value) -> serde_json::Value {
