@@ -317,6 +317,8 @@ pub struct Simulation {
     end_groups: Vec<usize>,
     /// Kinematic particles whose object has a pin motion or an animated mesh.
     moving_pins: Vec<u32>,
+    /// Scratch: the target of each moving pin at the end of the current substep (m).
+    pin_targets: Vec<[f64; 3]>,
     /// Scratch: each object's pin transform at the current target time.
     object_transforms: Vec<(DQuat, DVec3)>,
     /// Simulated time (s).
@@ -396,7 +398,7 @@ impl Simulation {
                 p.flags.push(if pinned { FLAG_KINEMATIC } else { 0 });
             }
         }
-        let moving_pins = (0..p.len() as u32)
+        let moving_pins: Vec<u32> = (0..p.len() as u32)
             .filter(|&i| {
                 let o = &objects[p.object[i as usize] as usize];
                 p.flags[i as usize] & FLAG_KINEMATIC != 0
@@ -497,6 +499,7 @@ impl Simulation {
             force_groups: Vec::new(),
             begin_groups: Vec::new(),
             end_groups: Vec::new(),
+            pin_targets: vec![[0.0; 3]; moving_pins.len()],
             moving_pins,
             object_transforms,
             time: 0.0,
@@ -590,7 +593,7 @@ impl Simulation {
             *tr = o.pin_motion.transform(t);
         }
         let frame_pos = t * self.settings.frame_rate;
-        for &i in &self.moving_pins {
+        for (&i, slot) in self.moving_pins.iter().zip(&mut self.pin_targets) {
             let i = i as usize;
             let oi = self.particles.object[i] as usize;
             let o = &self.objects[oi];
@@ -608,47 +611,52 @@ impl Simulation {
                 DVec3::from_array(o.sequence[f][local])
                     .lerp(DVec3::from_array(o.sequence[g][local]), s)
             };
-            // Kinematic particles use x0 as scratch for their target until `predict`.
-            self.particles.x0[i] = target.to_array();
+            *slot = target.to_array();
         }
     }
 
     fn apply_gravity(&mut self, h: f64) {
-        let g = DVec3::from_array(self.settings.gravity) * h;
+        let g = (DVec3::from_array(self.settings.gravity) * h).to_array();
         let p = &mut self.particles;
         for (v, &w) in p.v.iter_mut().zip(&p.inv_mass) {
-            if w > 0.0 {
-                *v = (DVec3::from_array(*v) + g).to_array();
+            // A select rather than a branch, so the loop vectorises; pins keep their velocity.
+            let free = w > 0.0;
+            for (c, g) in v.iter_mut().zip(g) {
+                *c = if free { *c + g } else { *c };
             }
         }
     }
 
+    /// `x0 = x`, then `x += h v` for every free particle, over the flat arrays (which the
+    /// compiler vectorises); then each moving pin goes to its target, with the velocity that
+    /// takes it there.
     fn predict(&mut self, h: f64) {
         let p = &mut self.particles;
-        let moving = &self.moving_pins;
-        let mut next_moving = 0;
-        for i in 0..p.x.len() {
-            if next_moving < moving.len() && moving[next_moving] as usize == i {
-                // Target was stored in x0 by `move_kinematic`.
-                let target = p.x0[i];
-                p.x0[i] = p.x[i];
-                p.v[i] = ((DVec3::from_array(target) - DVec3::from_array(p.x[i])) / h).to_array();
-                p.x[i] = target;
-                next_moving += 1;
-                continue;
+        p.x0.copy_from_slice(&p.x);
+        for ((x, v), &w) in p.x.iter_mut().zip(&p.v).zip(&p.inv_mass) {
+            let free = w > 0.0;
+            for (x, v) in x.iter_mut().zip(v) {
+                *x = if free { *x + v * h } else { *x };
             }
-            p.x0[i] = p.x[i];
-            if p.inv_mass[i] > 0.0 {
-                p.x[i] = (DVec3::from_array(p.x[i]) + DVec3::from_array(p.v[i]) * h).to_array();
-            }
+        }
+        for (&i, target) in self.moving_pins.iter().zip(&self.pin_targets) {
+            let i = i as usize;
+            p.v[i] = ((DVec3::from_array(*target) - DVec3::from_array(p.x0[i])) / h).to_array();
+            p.x[i] = *target;
         }
     }
 
     fn update_velocities(&mut self, h: f64) {
         let p = &mut self.particles;
         let inv_h = 1.0 / h;
-        for ((v, x), x0) in p.v.iter_mut().zip(&p.x).zip(&p.x0) {
-            *v = ((DVec3::from_array(*x) - DVec3::from_array(*x0)) * inv_h).to_array();
+        // Component by component over the flat arrays, which the compiler vectorises.
+        let (v, x, x0) = (
+            p.v.as_flattened_mut(),
+            p.x.as_flattened(),
+            p.x0.as_flattened(),
+        );
+        for ((v, x), x0) in v.iter_mut().zip(x).zip(x0) {
+            *v = (x - x0) * inv_h;
         }
     }
 
@@ -657,8 +665,8 @@ impl Simulation {
             return;
         }
         let k = (-self.settings.damping * h).exp();
-        for v in &mut self.particles.v {
-            *v = (DVec3::from_array(*v) * k).to_array();
+        for v in self.particles.v.as_flattened_mut() {
+            *v *= k;
         }
     }
 
