@@ -113,9 +113,8 @@ pub fn start_direction(x0: [DVec3; 2], n: DVec3) -> DVec3 {
 ///
 /// It is computed with unnormalised vectors (see [`correction_direction`]) and both sides of the
 /// update multiplied by `|xj − xi|`, so that one square root and one division lie between
-/// loading the edge and storing its correction: on a 128 × 128 cloth a pass takes 0.59 of the
-/// time of the form written above with unit vectors (one thread, `cargo bench -p
-/// nucleus-stretch`), and the result is the same up to rounding.
+/// loading the edge and storing its correction (see the crate docs' "Cost" section for what
+/// that buys); the result is the same up to rounding.
 ///
 /// `None` when the edge cannot be projected: its particles (nearly) coincide, so the gradient
 /// is undefined, or both have infinite mass. Never returns NaN for finite input.

@@ -346,7 +346,8 @@ impl ConstraintGroup for StretchGroup {
     /// (`RAYON_NUM_THREADS`, default the machine's cores; see [`crate::spin`]): its edges share
     /// no particle, so every edge reads and writes only its own two particles and the result
     /// is bit-identical whatever the thread count. On the 2-core machine the 128 × 128 drape
-    /// runs 1.4× faster on two threads than on one. No allocation after the first pass.
+    /// at 40 × 1 runs 1.5× faster on two threads than on one (22.9 → 15.0 ms per frame). No
+    /// allocation after the first pass.
     fn project(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
         let h = ctx.h;
         if !h.is_finite() || h <= 0.0 {

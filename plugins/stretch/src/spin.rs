@@ -1,11 +1,11 @@
 //! A tiny fork-join team for the colours of one pass: helper threads that stay awake between
 //! the short, back-to-back jobs of a substep.
 //!
-//! One `project` pass over a 128 × 128 cloth is ten colours of about 80 µs each. Handing each
-//! colour (or even each pass) to rayon's pool from the host's thread cost more than it saved on
-//! the 2-core VM: a parked worker takes tens of microseconds to wake, and the host's thread
-//! sleeps on a condition variable until the job is done, so two threads ran the drape no faster
-//! than one (median) — the best frames were 1.4× faster, the typical ones slower. Here the
+//! One `project` pass over a 128 × 128 cloth is ten colours of about 45 µs each on one thread.
+//! Handing each colour (or even each pass) to rayon's pool from the host's thread cost more than
+//! it saved on the 2-core VM: a parked worker takes tens of microseconds to wake, and the host's
+//! thread sleeps on a condition variable until the job is done, so two threads ran the drape no
+//! faster than one (median) — the best frames were 1.4× faster, the typical ones slower. Here the
 //! caller runs part 0 of every job itself and `helpers` threads run parts 1..; between jobs a
 //! helper spins (for up to [`SPIN`]) before it parks, so within a substep it is always awake.
 //! One team serves every group of the plugin ([`shared`]): a team per group left the helpers of
