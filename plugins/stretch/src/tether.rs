@@ -23,6 +23,7 @@
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
+use crate::spin;
 use nucleus_sdk::params::{self, ParamSpec};
 use nucleus_sdk::prelude::*;
 use serde::Deserialize;
@@ -146,14 +147,52 @@ pub fn project_tether(
     Some((n * (w * dl), dl))
 }
 
-/// The `tether` group: SoA batch of (particle, pin, length).
+/// The `tether` group: SoA batch of (particle, pin, length), ordered by particle.
 pub struct TetherGroup {
     particle: Vec<u32>,
     pin: Vec<u32>,
     length: Vec<f64>,
     lambda: Vec<f64>,
     compliance: f64,
+    /// The largest particle index of the batch (`None` when it is empty).
+    max_index: Option<u32>,
 }
+
+/// From this many tethers a pass is shared by the plugin's thread team. Measured on the
+/// 2-core VM (see `project`).
+const PARALLEL_MIN_TETHERS: usize = 2048;
+
+/// A raw pointer to the positions, shared by the parts of one pass.
+#[derive(Clone, Copy)]
+struct TetherPositions(*mut DVec3);
+
+/// A raw pointer to the multipliers, shared by the parts of one pass.
+#[derive(Clone, Copy)]
+struct TetherLambdas(*mut f64);
+
+impl TetherPositions {
+    /// The address of position `i` (a method, so that closures capture the whole wrapper).
+    fn at(self, i: usize) -> *mut DVec3 {
+        self.0.wrapping_add(i)
+    }
+}
+
+impl TetherLambdas {
+    /// The address of multiplier `k`.
+    fn at(self, k: usize) -> *mut f64 {
+        self.0.wrapping_add(k)
+    }
+}
+
+// SAFETY: dereferenced only inside `project`, where each part writes the particles and
+// multipliers of its own span of tethers (see the SAFETY comment there).
+unsafe impl Send for TetherPositions {}
+// SAFETY: as above.
+unsafe impl Sync for TetherPositions {}
+// SAFETY: as above.
+unsafe impl Send for TetherLambdas {}
+// SAFETY: as above.
+unsafe impl Sync for TetherLambdas {}
 
 impl TetherGroup {
     /// Builds the tethers of the target objects.
@@ -166,6 +205,7 @@ impl TetherGroup {
             length: Vec::new(),
             lambda: Vec::new(),
             compliance: p.compliance,
+            max_index: None,
         };
         let mut seen = Vec::new();
         for object in scene.targets() {
@@ -217,6 +257,7 @@ impl TetherGroup {
             }
         }
         g.lambda = vec![0.0; g.particle.len()];
+        g.max_index = g.particle.iter().chain(&g.pin).copied().max();
         Ok(g)
     }
 }
@@ -239,29 +280,76 @@ impl ConstraintGroup for TetherGroup {
         Ok(())
     }
 
+    /// One pass over the tethers in order. A tether moves only its particle (a pin has
+    /// infinite mass), and a particle's tethers are consecutive, so from
+    /// [`PARALLEL_MIN_TETHERS`] tethers up the batch is split at particle boundaries over the
+    /// plugin's thread team (see [`crate::spin`]): each particle's tethers run in the same
+    /// order on one thread, so the result is bit-identical whatever the thread count.
     fn project(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
         let h = ctx.h;
         let p = ctx.particles();
-        let (x, w) = (p.x, p.inv_mass);
-        for k in 0..self.particle.len() {
-            let (i, pin) = (self.particle[k] as usize, self.pin[k] as usize);
-            let (Some(&xi), Some(&xp), Some(&wi)) = (x.get(i), x.get(pin), w.get(i)) else {
+        let (w, len) = (p.inv_mass, p.x.len().min(p.inv_mass.len()));
+        if let Some(max) = self.max_index {
+            if max as usize >= len {
                 return Err(PluginError::failed(
                     "tether refers to a particle outside the state",
                 ));
-            };
-            if let Some((dx, dl)) = project_tether(
-                xi,
-                wi,
-                xp,
-                self.length[k],
-                self.compliance,
-                self.lambda[k],
-                h,
-            ) {
-                x[i] = xi + dx;
-                self.lambda[k] += dl;
             }
+        }
+        let x = TetherPositions(p.x.as_mut_ptr());
+        let lambda = TetherLambdas(self.lambda.as_mut_ptr());
+        let (particle, pin, length) = (&self.particle[..], &self.pin[..], &self.length[..]);
+        let compliance = self.compliance;
+        let n = particle.len();
+        // The part of the batch that `part` of `parts` projects: equal shares, each boundary
+        // moved forward to the start of a particle's run of tethers.
+        let span = |part: usize, parts: usize| {
+            let boundary = |b: usize| {
+                let mut b = b * n / parts;
+                while b > 0 && b < n && particle[b] == particle[b - 1] {
+                    b += 1;
+                }
+                b
+            };
+            boundary(part)..boundary(part + 1)
+        };
+        let job = |part: usize, parts: usize| {
+            for k in span(part, parts) {
+                let (i, pin) = (particle[k] as usize, pin[k] as usize);
+                // SAFETY: `i` and `pin` are below `len` (checked above, against the state of
+                // this call). Particle `i` is written only by the part that owns its run of
+                // tethers; a pin is only read, and never written, since tethers of a particle
+                // with infinite mass are not built and `project_tether` moves no such particle.
+                // `lambda[k]` belongs to this part's span alone.
+                unsafe {
+                    let xi = *x.at(i);
+                    let xp = *x.at(pin);
+                    let l = lambda.at(k);
+                    if let Some((dx, dl)) =
+                        project_tether(xi, w[i], xp, length[k], compliance, *l, h)
+                    {
+                        *x.at(i) = xi + dx;
+                        *l += dl;
+                    }
+                }
+            }
+        };
+        let threads = if n >= PARALLEL_MIN_TETHERS {
+            rayon::current_num_threads().max(1)
+        } else {
+            1
+        };
+        let mut team = if threads > 1 {
+            spin::shared(threads)
+        } else {
+            None
+        };
+        match team.as_mut().and_then(|t| t.as_mut()) {
+            Some(team) => {
+                let parts = team.parts();
+                team.run(&|part| job(part, parts));
+            }
+            None => job(0, 1),
         }
         Ok(())
     }
