@@ -24,6 +24,16 @@ fn run_with(tag: &str, scene: &str, threads: &str, extra: &[&str]) -> std::path:
     out
 }
 
+/// Every OBJ frame `0..=frames` of run `a` is byte for byte that of run `b`.
+fn assert_same_frames(a: &std::path::Path, b: &std::path::Path, frames: u32, what: &str) {
+    for f in 0..=frames {
+        let name = format!("frame_{f:04}.obj");
+        let fa = std::fs::read(a.join(&name)).unwrap();
+        let fb = std::fs::read(b.join(&name)).unwrap();
+        assert!(fa == fb, "{name} differs between {what}");
+    }
+}
+
 fn stats_without_wall(dir: &std::path::Path) -> Vec<String> {
     let text = std::fs::read_to_string(dir.join("stats.csv")).unwrap();
     let wall = text
@@ -50,12 +60,7 @@ fn two_runs_of_the_default_scene_are_bit_identical() {
     let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/hanging_cloth.toml");
     let a = run_once("det-a", scene, "1");
     let b = run_once("det-b", scene, "2");
-    for f in 0..=30 {
-        let name = format!("frame_{f:04}.obj");
-        let fa = std::fs::read(a.join(&name)).unwrap();
-        let fb = std::fs::read(b.join(&name)).unwrap();
-        assert!(fa == fb, "{name} differs between two runs");
-    }
+    assert_same_frames(&a, &b, 30, "two runs");
     assert_eq!(stats_without_wall(&a), stats_without_wall(&b));
 }
 
@@ -71,12 +76,7 @@ fn one_and_two_threads_give_bit_identical_frames() {
     ];
     let a = run_with("threads-1", scene, "1", &set);
     let b = run_with("threads-2", scene, "2", &set);
-    for f in 0..=4 {
-        let name = format!("frame_{f:04}.obj");
-        let fa = std::fs::read(a.join(&name)).unwrap();
-        let fb = std::fs::read(b.join(&name)).unwrap();
-        assert!(fa == fb, "{name} differs between 1 and 2 threads");
-    }
+    assert_same_frames(&a, &b, 4, "1 and 2 threads");
 }
 
 #[test]
@@ -181,12 +181,7 @@ objects = ["cloth"]
     let scene = scene.to_str().unwrap();
     let a = run_with("tether-threads-1", scene, "1", &[]);
     let b = run_with("tether-threads-2", scene, "2", &[]);
-    for f in 0..=4 {
-        let name = format!("frame_{f:04}.obj");
-        let fa = std::fs::read(a.join(&name)).unwrap();
-        let fb = std::fs::read(b.join(&name)).unwrap();
-        assert!(fa == fb, "{name} differs between 1 and 2 threads");
-    }
+    assert_same_frames(&a, &b, 4, "1 and 2 threads");
     let first = std::fs::read(a.join("frame_0000.obj")).unwrap();
     let last = std::fs::read(a.join("frame_0004.obj")).unwrap();
     assert!(first != last, "the cloth must have moved");

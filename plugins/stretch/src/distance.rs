@@ -176,38 +176,72 @@ pub fn project_distance_with(
     terms: &XpbdTerms,
     lambda: f64,
 ) -> Option<Correction> {
-    let d = x[1] - x[0];
-    let len = d.length();
-    if !len.is_finite() || len < MIN_LENGTH {
-        return None;
-    }
-    let w_sum = w[0] + w[1];
-    if w_sum.is_nan() || w_sum <= 0.0 {
-        return None;
-    }
-    let c = len - rest;
-    let (u, du, u_len) = correction_direction(d, len, x0);
+    let e = EdgeStep::new(x, x0, w)?;
+    let c = e.len - rest;
     // Stretched or compressed: the terms of the sign of C, chosen without a branch on the chain.
     let k = usize::from(c < 0.0);
     let (alpha_tilde, gamma) = (terms.alpha_tilde[k], terms.gamma[k]);
     // Δλ = s |u| with n·u = (d·u)/|d|; both sides of the XPBD update multiplied by |d| so that
     // one division remains. With damping (Macklin et al. 2016, eq. (26)) the update is the
     // undamped one with C → C + γ n·(x − x0) and Σw|∇C|² → (1 + γ) Σw|∇C|².
-    let mut numerator = -(c + alpha_tilde * lambda) * len;
+    let mut numerator = -(c + alpha_tilde * lambda) * e.len;
     if gamma > 0.0 {
-        numerator -= gamma * d.dot((x[1] - x0[1]) - (x[0] - x0[0]));
+        numerator -= gamma * e.d.dot((x[1] - x0[1]) - (x[0] - x0[0]));
     }
-    let denominator = (1.0 + gamma) * w_sum * du + alpha_tilde * u_len * len;
+    let denominator = (1.0 + gamma) * e.w_sum * e.du + alpha_tilde * e.u_len * e.len;
     if denominator <= f64::MIN_POSITIVE || !denominator.is_finite() {
         return None;
     }
-    let s = numerator / denominator;
-    let step = u * s;
-    Some(Correction {
-        dxi: -w[0] * step,
-        dxj: w[1] * step,
-        delta_lambda: s * u_len,
-    })
+    Some(e.correction(w, numerator / denominator))
+}
+
+/// What both forms of the projection need of an edge: `d = xj − xi` and its length, the sum of
+/// the inverse masses, and the correction direction `u` with `d·u` and `|u|` (see
+/// [`correction_direction`]).
+struct EdgeStep {
+    d: DVec3,
+    len: f64,
+    w_sum: f64,
+    u: DVec3,
+    du: f64,
+    u_len: f64,
+}
+
+impl EdgeStep {
+    /// `None` when the edge cannot be projected: its particles (nearly) coincide, or both have
+    /// infinite mass.
+    #[inline]
+    fn new(x: [DVec3; 2], x0: [DVec3; 2], w: [f64; 2]) -> Option<EdgeStep> {
+        let d = x[1] - x[0];
+        let len = d.length();
+        if !len.is_finite() || len < MIN_LENGTH {
+            return None;
+        }
+        let w_sum = w[0] + w[1];
+        if w_sum.is_nan() || w_sum <= 0.0 {
+            return None;
+        }
+        let (u, du, u_len) = correction_direction(d, len, x0);
+        Some(EdgeStep {
+            d,
+            len,
+            w_sum,
+            u,
+            du,
+            u_len,
+        })
+    }
+
+    /// The correction of the step `s` along `u`: `Δxi = −wi u s`, `Δxj = wj u s`, `Δλ = s |u|`.
+    #[inline]
+    fn correction(&self, w: [f64; 2], s: f64) -> Correction {
+        let step = self.u * s;
+        Correction {
+            dxi: -w[0] * step,
+            dxj: w[1] * step,
+            delta_lambda: s * self.u_len,
+        }
+    }
 }
 
 /// The unnormalised direction `u` of the correction of an edge `d = xj − xi` of length `len`,
@@ -227,11 +261,10 @@ pub fn correction_direction(d: DVec3, len: f64, x0: [DVec3; 2]) -> (DVec3, f64, 
 }
 
 /// [`project_distance`] for a hard edge (`material` [`EdgeMaterial::HARD`], or any material
-/// whose two compliances are 0: damping has no effect on a hard edge), written for a short
-/// chain of dependent operations: one square root and one division between loading the edge
-/// and storing its correction, where the general form has two of each and a dot product
-/// between them. Within a colour the edges are independent, so the processor overlaps as many
-/// edges as its reorder window holds, and the shorter chain lets it hold more.
+/// whose two compliances are 0: damping has no effect on a hard edge): the same short chain of
+/// dependent operations, without the compliance terms. Within a colour the edges are
+/// independent, so the processor overlaps as many edges as its reorder window holds, and the
+/// shorter the chain of each, the more it holds.
 ///
 /// With `u` the unnormalised correction direction (`xj0 − xi0`, or `d = xj − xi` as in
 /// [`start_direction`]) and `n = d/|d|`, the Newton step along `u` is `s = −C/(Σw n·u)`, that
@@ -244,23 +277,8 @@ pub fn project_distance_hard(
     w: [f64; 2],
     rest: f64,
 ) -> Option<Correction> {
-    let d = x[1] - x[0];
-    let len = d.length();
-    if !len.is_finite() || len < MIN_LENGTH {
-        return None;
-    }
-    let w_sum = w[0] + w[1];
-    if w_sum.is_nan() || w_sum <= 0.0 {
-        return None;
-    }
-    let (u, du, u_len) = correction_direction(d, len, x0);
-    let s = (rest - len) * len / (w_sum * du);
-    let step = u * s;
-    Some(Correction {
-        dxi: -w[0] * step,
-        dxj: w[1] * step,
-        delta_lambda: s * u_len,
-    })
+    let e = EdgeStep::new(x, x0, w)?;
+    Some(e.correction(w, (rest - e.len) * e.len / (e.w_sum * e.du)))
 }
 
 #[cfg(test)]

@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::chebyshev::{Chebyshev, MAX_RHO};
 use crate::distance::{project_distance_hard, project_distance_with, EdgeMaterial, XpbdTerms};
-use crate::spin;
+use crate::spin::{self, SharedArray};
 
 /// Smallest valid `rest_length_scale`: the scale must be positive, and a bound that prints
 /// as a plain number keeps the host's parameter tables and messages readable.
@@ -129,36 +129,6 @@ pub struct StretchGroup {
 /// 1.26 ms; 512 was slower than both on the 32 × 32 drape (9.4 ms).
 const PARALLEL_MIN_EDGES: usize = 256;
 
-/// A raw pointer to the positions, shared by the threads of one colour.
-#[derive(Clone, Copy)]
-struct Positions(*mut DVec3);
-
-/// A raw pointer to the multipliers, shared by the threads of one colour.
-#[derive(Clone, Copy)]
-struct Lambdas(*mut f64);
-
-impl Lambdas {
-    /// The multipliers `start..start + len` as a slice.
-    ///
-    /// # Safety
-    /// The range is inside the group's multipliers, and no other thread uses it meanwhile.
-    unsafe fn slice<'a>(self, start: usize, len: usize) -> &'a mut [f64] {
-        // SAFETY: guaranteed by the caller.
-        unsafe { std::slice::from_raw_parts_mut(self.0.add(start), len) }
-    }
-}
-
-// SAFETY: the pointer is only dereferenced inside `project`, on disjoint sub-ranges per thread.
-unsafe impl Send for Lambdas {}
-// SAFETY: as above.
-unsafe impl Sync for Lambdas {}
-
-// SAFETY: the pointer is only dereferenced inside `project_edges`, whose callers guarantee
-// that concurrent calls touch disjoint particles (edges of one colour share none).
-unsafe impl Send for Positions {}
-// SAFETY: as above.
-unsafe impl Sync for Positions {}
-
 /// Projects `ids[k]` for every `k`, in order.
 ///
 /// # Safety
@@ -166,7 +136,7 @@ unsafe impl Sync for Positions {}
 /// no other thread reads or writes the positions of these edges' particles meanwhile.
 #[allow(clippy::too_many_arguments)]
 unsafe fn project_edges<const HARD: bool>(
-    x: Positions,
+    x: SharedArray<DVec3>,
     x0: &[DVec3],
     w: &[f64],
     ids: &[[u32; 2]],
@@ -176,10 +146,9 @@ unsafe fn project_edges<const HARD: bool>(
 ) {
     for ((&[i, j], &rest), lambda) in ids.iter().zip(rest).zip(lambda) {
         let (i, j) = (i as usize, j as usize);
+        let (pi, pj) = (x.at(i), x.at(j));
         // SAFETY: indices are in bounds (checked against the state before the pass) and the
         // caller guarantees exclusive access to particles i and j.
-        let (pi, pj) = unsafe { (x.0.add(i), x.0.add(j)) };
-        // SAFETY: as above.
         let (xi, xj) = unsafe { (*pi, *pj) };
         let c = if HARD {
             project_distance_hard([xi, xj], [x0[i], x0[j]], [w[i], w[j]], rest)
@@ -361,25 +330,16 @@ impl ConstraintGroup for StretchGroup {
             c.before_pass(p.x);
         }
         let (x0, w) = (p.x0, p.inv_mass);
-        let x = Positions(p.x.as_mut_ptr());
+        let x = SharedArray::new(p.x);
         let material = self.material;
         let parallel = self
             .batches
             .iter()
             .any(|(r, i)| *i && r.len() >= PARALLEL_MIN_EDGES);
-        let threads = if parallel {
-            rayon::current_num_threads().max(1)
-        } else {
-            1
-        };
         // The large colours are shared by the plugin's team of threads, held for the whole
         // pass (`RAYON_NUM_THREADS` or the machine's cores); none on one thread.
-        let mut team = if threads > 1 {
-            spin::shared(threads)
-        } else {
-            None
-        };
-        let lambda = Lambdas(self.lambda.as_mut_ptr());
+        let mut team = spin::shared_if(parallel);
+        let lambda = SharedArray::new(&mut self.lambda);
         // A hard material takes the kernel with the shorter dependency chain.
         let terms = material.terms(h);
         let kernel = if material.compliance == 0.0 && material.compression_compliance == 0.0 {

@@ -152,6 +152,41 @@ impl Drop for Team {
     }
 }
 
+/// A raw pointer to the first element of an array the parts of one job share, each part
+/// reading and writing only the elements it owns. A method gives the addresses, so that a
+/// closure captures the whole wrapper (which is `Sync`), not the raw pointer inside it.
+#[derive(Clone, Copy, Debug)]
+pub struct SharedArray<T>(*mut T);
+
+impl<T> SharedArray<T> {
+    /// The array `items`, for as long as the caller does not use it otherwise.
+    pub fn new(items: &mut [T]) -> SharedArray<T> {
+        SharedArray(items.as_mut_ptr())
+    }
+
+    /// The address of element `i` (computing it is safe; using it is the caller's contract).
+    pub fn at(self, i: usize) -> *mut T {
+        self.0.wrapping_add(i)
+    }
+
+    /// The elements `start..start + len` as a slice.
+    ///
+    /// # Safety
+    /// The range is inside the array, the array outlives `'a`, and no other part uses the
+    /// range meanwhile.
+    pub unsafe fn slice<'a>(self, start: usize, len: usize) -> &'a mut [T] {
+        // SAFETY: guaranteed by the caller.
+        unsafe { std::slice::from_raw_parts_mut(self.0.add(start), len) }
+    }
+}
+
+// SAFETY: a `SharedArray` is only dereferenced by the parts of one job, each on the elements it
+// owns (every use states why in its own SAFETY comment), and `T: Send` lets those elements be
+// written from another thread.
+unsafe impl<T: Send> Send for SharedArray<T> {}
+// SAFETY: as above.
+unsafe impl<T: Send> Sync for SharedArray<T> {}
+
 /// The plugin's one team, shared by every group (see the module docs).
 static SHARED: std::sync::Mutex<Option<Team>> = std::sync::Mutex::new(None);
 
@@ -171,6 +206,22 @@ pub fn shared(parts: usize) -> Option<std::sync::MutexGuard<'static, Option<Team
         *guard = (parts > 1).then(|| Team::new(parts - 1));
     }
     Some(guard)
+}
+
+/// The shared team for a job worth splitting (`wanted`), sized to `RAYON_NUM_THREADS` (default
+/// the machine's cores); `None` when it is not wanted, on one thread, or when another thread
+/// holds it (see [`shared`]).
+pub fn shared_if(wanted: bool) -> Option<std::sync::MutexGuard<'static, Option<Team>>> {
+    let threads = if wanted {
+        rayon::current_num_threads().max(1)
+    } else {
+        1
+    };
+    if threads > 1 {
+        shared(threads)
+    } else {
+        None
+    }
 }
 
 /// A helper's loop: wait for a new epoch (spinning, then parked), run its part, report.

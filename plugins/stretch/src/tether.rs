@@ -23,7 +23,7 @@
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
-use crate::spin;
+use crate::spin::{self, SharedArray};
 use nucleus_sdk::params::{self, ParamSpec};
 use nucleus_sdk::prelude::*;
 use serde::Deserialize;
@@ -158,41 +158,9 @@ pub struct TetherGroup {
     max_index: Option<u32>,
 }
 
-/// From this many tethers a pass is shared by the plugin's thread team. Measured on the
-/// 2-core VM (see `project`).
+/// From this many tethers a pass is shared by the plugin's thread team: a pass of 2,048
+/// tethers takes about 10 µs, a few times the team's hand-off. Chosen, not tuned.
 const PARALLEL_MIN_TETHERS: usize = 2048;
-
-/// A raw pointer to the positions, shared by the parts of one pass.
-#[derive(Clone, Copy)]
-struct TetherPositions(*mut DVec3);
-
-/// A raw pointer to the multipliers, shared by the parts of one pass.
-#[derive(Clone, Copy)]
-struct TetherLambdas(*mut f64);
-
-impl TetherPositions {
-    /// The address of position `i` (a method, so that closures capture the whole wrapper).
-    fn at(self, i: usize) -> *mut DVec3 {
-        self.0.wrapping_add(i)
-    }
-}
-
-impl TetherLambdas {
-    /// The address of multiplier `k`.
-    fn at(self, k: usize) -> *mut f64 {
-        self.0.wrapping_add(k)
-    }
-}
-
-// SAFETY: dereferenced only inside `project`, where each part writes the particles and
-// multipliers of its own span of tethers (see the SAFETY comment there).
-unsafe impl Send for TetherPositions {}
-// SAFETY: as above.
-unsafe impl Sync for TetherPositions {}
-// SAFETY: as above.
-unsafe impl Send for TetherLambdas {}
-// SAFETY: as above.
-unsafe impl Sync for TetherLambdas {}
 
 impl TetherGroup {
     /// Builds the tethers of the target objects.
@@ -296,8 +264,8 @@ impl ConstraintGroup for TetherGroup {
                 ));
             }
         }
-        let x = TetherPositions(p.x.as_mut_ptr());
-        let lambda = TetherLambdas(self.lambda.as_mut_ptr());
+        let x = SharedArray::new(p.x);
+        let lambda = SharedArray::new(&mut self.lambda);
         let (particle, pin, length) = (&self.particle[..], &self.pin[..], &self.length[..]);
         let compliance = self.compliance;
         let n = particle.len();
@@ -334,16 +302,7 @@ impl ConstraintGroup for TetherGroup {
                 }
             }
         };
-        let threads = if n >= PARALLEL_MIN_TETHERS {
-            rayon::current_num_threads().max(1)
-        } else {
-            1
-        };
-        let mut team = if threads > 1 {
-            spin::shared(threads)
-        } else {
-            None
-        };
+        let mut team = spin::shared_if(n >= PARALLEL_MIN_TETHERS);
         match team.as_mut().and_then(|t| t.as_mut()) {
             Some(team) => {
                 let parts = team.parts();
