@@ -43,6 +43,50 @@ fn find_attribute<'s>(attrs: RSlice<'s, Attribute<'s>>, name: &str) -> Option<(u
 }
 
 impl<'a> SolveContext<'a> {
+    /// A context over particle arrays of one length for a substep of `h` seconds, as a
+    /// plugin's own tests and benchmarks need it (the core builds its contexts itself): no
+    /// attributes, no gravity, time 0, frame 0, the first of one substep and of one pass.
+    /// Change any of these with struct update syntax:
+    ///
+    /// ```
+    /// # use nucleus_sdk::SolveContext;
+    /// let (mut x, mut v) = (vec![[0.0; 3]; 2], vec![[0.0; 3]; 2]);
+    /// let (x0, inv_mass, object, flags) = (x.clone(), vec![1.0; 2], vec![0; 2], vec![0; 2]);
+    /// let ctx = SolveContext {
+    ///     gravity: [0.0, -9.81, 0.0],
+    ///     substeps: 10,
+    ///     ..SolveContext::new(&mut x, &mut v, &x0, &inv_mass, &object, &flags, 1.0 / 600.0)
+    /// };
+    /// assert_eq!(ctx.positions().len(), 2);
+    /// ```
+    pub fn new(
+        x: &'a mut [[f64; 3]],
+        v: &'a mut [[f64; 3]],
+        x0: &'a [[f64; 3]],
+        inv_mass: &'a [f64],
+        object: &'a [u32],
+        flags: &'a [u32],
+        h: f64,
+    ) -> Self {
+        SolveContext {
+            x: abi_stable::std_types::RSliceMut::from_mut_slice(x),
+            v: abi_stable::std_types::RSliceMut::from_mut_slice(v),
+            x0: RSlice::from_slice(x0),
+            inv_mass: RSlice::from_slice(inv_mass),
+            object: RSlice::from_slice(object),
+            flags: RSlice::from_slice(flags),
+            attributes: RSlice::EMPTY,
+            h,
+            time: 0.0,
+            gravity: [0.0; 3],
+            frame: 0,
+            substep: 0,
+            substeps: 1,
+            pass: 0,
+            passes: 1,
+        }
+    }
+
     /// All slices at once, positions and velocities mutable.
     pub fn particles(&mut self) -> Particles<'_> {
         Particles {

@@ -5,7 +5,7 @@
 use std::time::Duration;
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
-use nucleus_sdk::abi_stable::std_types::{RSlice, RSliceMut, RStr};
+use nucleus_sdk::abi_stable::std_types::{RSlice, RStr};
 use nucleus_sdk::prelude::*;
 
 /// Particles per axis of the cloud.
@@ -60,21 +60,9 @@ fn project_pass(c: &mut Criterion) {
     let object = vec![0u32; count];
     let flags = vec![0u32; count];
     let mut ctx = SolveContext {
-        x: RSliceMut::from_mut_slice(&mut x),
-        v: RSliceMut::from_mut_slice(&mut v),
-        x0: RSlice::from_slice(&x0),
-        inv_mass: RSlice::from_slice(&inv_mass),
-        object: RSlice::from_slice(&object),
-        flags: RSlice::from_slice(&flags),
-        attributes: RSlice::EMPTY,
-        h: 1.0 / 600.0,
-        time: 0.0,
         gravity: [0.0, -9.81, 0.0],
-        frame: 0,
-        substep: 0,
         substeps: 10,
-        pass: 0,
-        passes: 1,
+        ..SolveContext::new(&mut x, &mut v, &x0, &inv_mass, &object, &flags, 1.0 / 600.0)
     };
 
     let mut bench = c.benchmark_group("attract");

@@ -6,7 +6,7 @@
 use std::time::Duration;
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
-use nucleus_sdk::abi_stable::std_types::{RSlice, RSliceMut, RStr};
+use nucleus_sdk::abi_stable::std_types::{RSlice, RStr};
 use nucleus_sdk::prelude::*;
 use nucleus_sdk::GroupBox;
 
@@ -110,21 +110,18 @@ fn force_pass(c: &mut Criterion) {
         let mut g = group(&cloth, params);
         bench.throughput(Throughput::Elements(g.constraint_count()));
         let mut ctx = SolveContext {
-            x: RSliceMut::from_mut_slice(&mut x),
-            v: RSliceMut::from_mut_slice(&mut v),
-            x0: RSlice::from_slice(&x0),
-            inv_mass: RSlice::from_slice(&cloth.inv_mass),
-            object: RSlice::from_slice(&object),
-            flags: RSlice::from_slice(&flags),
-            attributes: RSlice::EMPTY,
-            h: 1.0 / 600.0,
             time: 0.25,
             gravity: [0.0, -9.81, 0.0],
-            frame: 0,
-            substep: 0,
             substeps: 10,
-            pass: 0,
-            passes: 1,
+            ..SolveContext::new(
+                &mut x,
+                &mut v,
+                &x0,
+                &cloth.inv_mass,
+                &object,
+                &flags,
+                1.0 / 600.0,
+            )
         };
         bench.bench_function(name, |b| {
             b.iter(|| black_box(g.force(black_box(&mut ctx))).is_ok())

@@ -3,7 +3,7 @@
 //! called through the ABI trait object; and whole scenes through `nucleus-core` with the
 //! plugin registered in-process.
 
-use nucleus_sdk::abi_stable::std_types::{RSlice, RSliceMut, RStr};
+use nucleus_sdk::abi_stable::std_types::{RSlice, RStr};
 use nucleus_sdk::prelude::*;
 use nucleus_sdk::GroupBox;
 
@@ -175,21 +175,18 @@ impl State {
 
     fn ctx(&mut self) -> SolveContext<'_> {
         SolveContext {
-            x: RSliceMut::from_mut_slice(&mut self.x),
-            v: RSliceMut::from_mut_slice(&mut self.v),
-            x0: RSlice::from_slice(&self.x0),
-            inv_mass: RSlice::from_slice(&self.inv_mass),
-            object: RSlice::from_slice(&self.object),
-            flags: RSlice::from_slice(&self.flags),
-            attributes: RSlice::EMPTY,
-            h: H,
             time: self.time,
             gravity: [0.0, -9.81, 0.0],
-            frame: 0,
-            substep: 0,
             substeps: 10,
-            pass: 0,
-            passes: 1,
+            ..SolveContext::new(
+                &mut self.x,
+                &mut self.v,
+                &self.x0,
+                &self.inv_mass,
+                &self.object,
+                &self.flags,
+                H,
+            )
         }
     }
 

@@ -9,7 +9,7 @@ use std::collections::BTreeMap;
 use std::time::Duration;
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
-use nucleus_sdk::abi_stable::std_types::{RSlice, RSliceMut, RStr};
+use nucleus_sdk::abi_stable::std_types::{RSlice, RStr};
 use nucleus_sdk::prelude::*;
 use nucleus_sdk::{EdgePair, GroupBox, TrianglePair};
 
@@ -162,21 +162,17 @@ fn project_pass(c: &mut Criterion) {
         let mut g = group(shape, kind, r#"{"compliance": 1e-2}"#);
         bench.throughput(Throughput::Elements(g.constraint_count()));
         let mut ctx = SolveContext {
-            x: RSliceMut::from_mut_slice(&mut x),
-            v: RSliceMut::from_mut_slice(&mut v),
-            x0: RSlice::from_slice(&x0),
-            inv_mass: RSlice::from_slice(&shape.inv_mass),
-            object: RSlice::from_slice(&object),
-            flags: RSlice::from_slice(&flags),
-            attributes: RSlice::EMPTY,
-            h: 1.0 / 600.0,
-            time: 0.0,
             gravity: [0.0, -9.81, 0.0],
-            frame: 0,
-            substep: 0,
             substeps: 10,
-            pass: 0,
-            passes: 1,
+            ..SolveContext::new(
+                &mut x,
+                &mut v,
+                &x0,
+                &shape.inv_mass,
+                &object,
+                &flags,
+                1.0 / 600.0,
+            )
         };
         if let Err(e) = g.begin_substep(&mut ctx).into_result() {
             panic!("begin_substep failed: {e}");

@@ -29,7 +29,7 @@ use criterion::{black_box, criterion_group, criterion_main, Criterion};
 use glam::DVec3;
 use nucleus_core::world::Particles;
 use nucleus_core::{Registry, Scene, Simulation};
-use nucleus_sdk::abi_stable::std_types::{RResult, RSlice, RSliceMut};
+use nucleus_sdk::abi_stable::std_types::RResult;
 use nucleus_sdk::prelude::*;
 
 /// The scene, relative to this crate.
@@ -121,21 +121,20 @@ impl Heap {
         let passes = self.sim.groups[self.collision].importance * settings.iterations;
         let p = &mut self.sim.particles;
         let mut ctx = SolveContext {
-            x: RSliceMut::from_mut_slice(&mut p.x),
-            v: RSliceMut::from_mut_slice(&mut p.v),
-            x0: RSlice::from_slice(&p.x0),
-            inv_mass: RSlice::from_slice(&p.inv_mass),
-            object: RSlice::from_slice(&p.object),
-            flags: RSlice::from_slice(&p.flags),
-            attributes: RSlice::EMPTY,
-            h,
             time: self.time,
             gravity: settings.gravity,
             frame: self.frame,
-            substep: 0,
             substeps: settings.substeps,
-            pass: 0,
             passes,
+            ..SolveContext::new(
+                &mut p.x,
+                &mut p.v,
+                &p.x0,
+                &p.inv_mass,
+                &p.object,
+                &p.flags,
+                h,
+            )
         };
         let group = &mut self.sim.groups[self.collision].group;
         let ok = |r: RResult<(), PluginError>| {

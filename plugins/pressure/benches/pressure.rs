@@ -14,7 +14,6 @@ use std::time::Duration;
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
 use nucleus_core::{Registry, Simulation};
-use nucleus_sdk::abi_stable::std_types::{RSlice, RSliceMut};
 use nucleus_sdk::SolveContext;
 
 fn scene(constraint: &str) -> Simulation {
@@ -73,21 +72,16 @@ fn passes(c: &mut Criterion) {
         let mut v = vec![[0.0; 3]; x.len()];
         let p = &sim.particles;
         let mut ctx = SolveContext {
-            x: RSliceMut::from_mut_slice(&mut x),
-            v: RSliceMut::from_mut_slice(&mut v),
-            x0: RSlice::from_slice(&x0),
-            inv_mass: RSlice::from_slice(&p.inv_mass),
-            object: RSlice::from_slice(&p.object),
-            flags: RSlice::from_slice(&p.flags),
-            attributes: RSlice::EMPTY,
-            h: 1.0 / 600.0,
-            time: 0.0,
-            gravity: [0.0; 3],
-            frame: 0,
-            substep: 0,
             substeps: 10,
-            pass: 0,
-            passes: 1,
+            ..SolveContext::new(
+                &mut x,
+                &mut v,
+                &x0,
+                &p.inv_mass,
+                &p.object,
+                &p.flags,
+                1.0 / 600.0,
+            )
         };
         let group = &mut sim.groups[0].group;
         for stage in [group.force(&mut ctx), group.begin_substep(&mut ctx)] {

@@ -9,7 +9,6 @@ use std::sync::atomic::{AtomicU32, Ordering};
 use glam::DVec3;
 use nucleus_core::world::BuildError;
 use nucleus_core::{Registry, Simulation};
-use nucleus_sdk::abi_stable::std_types::{RSlice, RSliceMut};
 use nucleus_sdk::PluginError;
 
 use crate::nucleus_plugin;
@@ -576,21 +575,8 @@ fn a_state_too_small_for_the_group_is_an_error_not_a_panic() {
     let w = vec![1.0; 4];
     let zeros = vec![0u32; 4];
     let mut ctx = nucleus_sdk::SolveContext {
-        x: RSliceMut::from_mut_slice(&mut x),
-        v: RSliceMut::from_mut_slice(&mut v),
-        x0: RSlice::from_slice(&x0),
-        inv_mass: RSlice::from_slice(&w),
-        object: RSlice::from_slice(&zeros),
-        flags: RSlice::from_slice(&zeros),
-        attributes: RSlice::EMPTY,
-        h: 1.0 / 600.0,
-        time: 0.0,
-        gravity: [0.0; 3],
-        frame: 0,
-        substep: 0,
         substeps: 10,
-        pass: 0,
-        passes: 1,
+        ..nucleus_sdk::SolveContext::new(&mut x, &mut v, &x0, &w, &zeros, &zeros, 1.0 / 600.0)
     };
     for e in [
         group.force(&mut ctx).into_result(),

@@ -12,7 +12,7 @@ use std::time::Duration;
 
 use criterion::{black_box, criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 use glam::{DQuat, DVec3};
-use nucleus_sdk::abi_stable::std_types::{RSlice, RSliceMut, RStr};
+use nucleus_sdk::abi_stable::std_types::{RSlice, RStr};
 use nucleus_sdk::prelude::*;
 use nucleus_sdk::GroupBox;
 
@@ -135,21 +135,17 @@ fn project_pass(c: &mut Criterion) {
                     },
                     |x| {
                         let mut ctx = SolveContext {
-                            x: RSliceMut::from_mut_slice(x),
-                            v: RSliceMut::from_mut_slice(&mut v),
-                            x0: RSlice::from_slice(&s.rest),
-                            inv_mass: RSlice::from_slice(&s.inv_mass),
-                            object: RSlice::from_slice(&object),
-                            flags: RSlice::from_slice(&flags),
-                            attributes: RSlice::EMPTY,
-                            h: 1.0 / 600.0,
-                            time: 0.0,
                             gravity: [0.0, -9.81, 0.0],
-                            frame: 0,
-                            substep: 0,
                             substeps: 10,
-                            pass: 0,
-                            passes: 1,
+                            ..SolveContext::new(
+                                x,
+                                &mut v,
+                                &s.rest,
+                                &s.inv_mass,
+                                &object,
+                                &flags,
+                                1.0 / 600.0,
+                            )
                         };
                         black_box(g.project(black_box(&mut ctx))).is_ok()
                     },
