@@ -76,21 +76,6 @@ pub fn distance_constraint(xi: DVec3, xj: DVec3, rest: f64) -> Option<(f64, DVec
 /// for 26° and 0.98 for never.
 pub const START_DIRECTION_MIN_COS: f64 = 0.9;
 
-/// The direction of the correction: the edge's direction at the start of the substep when it
-/// is defined and within [`START_DIRECTION_MIN_COS`] of the current one `n`, else `n`.
-#[inline]
-pub fn start_direction(x0: [DVec3; 2], n: DVec3) -> DVec3 {
-    let e0 = x0[1] - x0[0];
-    let len0 = e0.length();
-    if len0 >= MIN_LENGTH && len0.is_finite() {
-        let d = e0 / len0;
-        if n.dot(d) >= START_DIRECTION_MIN_COS {
-            return d;
-        }
-    }
-    n
-}
-
 /// One XPBD step on the edge between `x = [xi, xj]` with inverse masses `w = [wi, wj]`,
 /// given the edge's multiplier `lambda` accumulated so far in this substep of length `h`.
 ///
@@ -246,8 +231,8 @@ impl EdgeStep {
 
 /// The unnormalised direction `u` of the correction of an edge `d = xj − xi` of length `len`,
 /// with `d·u` and `|u|`: the edge at the start of the substep `xj0 − xi0` when it has a length
-/// and is within [`START_DIRECTION_MIN_COS`] of `d`, else `d` itself (see [`start_direction`],
-/// the same choice with unit vectors). No division: the cosine test is `d·u ≥ cos |d| |u|`.
+/// and is within [`START_DIRECTION_MIN_COS`] of `d`, else `d` itself (the choice the docs of
+/// [`project_distance`] state with unit vectors). No division: the cosine test is `d·u ≥ cos |d| |u|`.
 #[inline]
 pub fn correction_direction(d: DVec3, len: f64, x0: [DVec3; 2]) -> (DVec3, f64, f64) {
     let e0 = x0[1] - x0[0];
@@ -266,8 +251,8 @@ pub fn correction_direction(d: DVec3, len: f64, x0: [DVec3; 2]) -> (DVec3, f64, 
 /// independent, so the processor overlaps as many edges as its reorder window holds, and the
 /// shorter the chain of each, the more it holds.
 ///
-/// With `u` the unnormalised correction direction (`xj0 − xi0`, or `d = xj − xi` as in
-/// [`start_direction`]) and `n = d/|d|`, the Newton step along `u` is `s = −C/(Σw n·u)`, that
+/// With `u` the unnormalised correction direction (`xj0 − xi0`, or `d = xj − xi`; see
+/// [`correction_direction`]) and `n = d/|d|`, the Newton step along `u` is `s = −C/(Σw n·u)`, that
 /// is `s = −C |d| / (Σw d·u)`, and `Δλ = s |u|`. The same step as [`project_distance`] up to
 /// rounding.
 #[inline]
@@ -325,6 +310,22 @@ mod tests {
 
     fn length(x: [DVec3; 2]) -> f64 {
         (x[1] - x[0]).length()
+    }
+
+    /// The direction of the correction with unit vectors, as the docs of [`project_distance`]
+    /// state it: the edge's direction at the start of the substep when it is defined and within
+    /// [`START_DIRECTION_MIN_COS`] of the current one `n`, else `n`. The reference
+    /// [`correction_direction`] must agree with.
+    fn start_direction(x0: [DVec3; 2], n: DVec3) -> DVec3 {
+        let e0 = x0[1] - x0[0];
+        let len0 = e0.length();
+        if len0 >= MIN_LENGTH && len0.is_finite() {
+            let d = e0 / len0;
+            if n.dot(d) >= START_DIRECTION_MIN_COS {
+                return d;
+            }
+        }
+        n
     }
 
     /// The XPBD update exactly as the docs of [`project_distance`] write it, with unit vectors

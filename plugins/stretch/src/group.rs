@@ -311,12 +311,12 @@ impl ConstraintGroup for StretchGroup {
     }
 
     /// One Gauss-Seidel pass over the edges in batch order, colour by colour. A colour of at
-    /// least [`PARALLEL_MIN_EDGES`] edges is split into contiguous parts over a team of threads
-    /// (`RAYON_NUM_THREADS`, default the machine's cores; see [`crate::spin`]): its edges share
-    /// no particle, so every edge reads and writes only its own two particles and the result
-    /// is bit-identical whatever the thread count. On the 2-core machine the 128 × 128 drape
-    /// at 40 × 1 runs 1.5× faster on two threads than on one (22.9 → 15.0 ms per frame). No
-    /// allocation after the first pass.
+    /// least `PARALLEL_MIN_EDGES` (256) edges is split into contiguous parts over a team of
+    /// threads (`RAYON_NUM_THREADS`, default the machine's cores; see [`crate::spin`]): its edges
+    /// share no particle, so every edge reads and writes only its own two particles and the
+    /// result is bit-identical whatever the thread count. On the 2-core machine the 128 × 128
+    /// drape at 40 × 1 runs 1.5× faster on two threads than on one (22.9 → 15.0 ms per frame).
+    /// No allocation after the first pass.
     fn project(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
         let h = ctx.h;
         if !h.is_finite() || h <= 0.0 {

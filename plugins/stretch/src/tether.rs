@@ -249,9 +249,9 @@ impl ConstraintGroup for TetherGroup {
     }
 
     /// One pass over the tethers in order. A tether moves only its particle (a pin has
-    /// infinite mass), and a particle's tethers are consecutive, so from
-    /// [`PARALLEL_MIN_TETHERS`] tethers up the batch is split at particle boundaries over the
-    /// plugin's thread team (see [`crate::spin`]): each particle's tethers run in the same
+    /// infinite mass), and a particle's tethers are consecutive, so from `PARALLEL_MIN_TETHERS`
+    /// (2,048) tethers up the batch is split at particle boundaries over the plugin's thread
+    /// team (see [`crate::spin`]): each particle's tethers run in the same
     /// order on one thread, so the result is bit-identical whatever the thread count.
     fn project(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
         let h = ctx.h;
