@@ -24,12 +24,12 @@ use abi_stable::{
 /// Version of the plugin ABI's *semantics* (the handshake the host checks on top of
 /// abi_stable's layout check). Bump it when the meaning of a field or a call changes while the
 /// layout stays the same; the host refuses plugins whose version it does not support.
-pub const SDK_ABI_VERSION: u32 = 1;
+pub const SDK_ABI_VERSION: u32 = 2;
 
 /// The abi_stable version string of the root module. Its major number is the frozen
 /// layout generation of [`PluginMod`]: it changes only with a breaking layout change, which
 /// also bumps [`SDK_ABI_VERSION`].
-pub const ROOT_MODULE_VERSION: &str = "1.0.0";
+pub const ROOT_MODULE_VERSION: &str = "2.0.0";
 
 // ---------------------------------------------------------------------------------------------
 // Errors
@@ -334,6 +334,8 @@ pub struct SolveContext<'a> {
     pub pass: u32,
     /// How many passes this group gets in this substep (its importance).
     pub passes: u32,
+    /// The host's thread team, for a group to split a pass over (see [`crate::team`]).
+    pub team: crate::team::TeamRef<'a>,
 }
 
 /// How far a group's constraints are from satisfied, in the kind's own unit, plus the

@@ -30,8 +30,10 @@
 //! * `force` and `end_substep` change `v` only.
 //! * Nothing may write NaN or infinity: the host checks after each call and stops the run
 //!   naming the plugin and the group.
-//! * A group may use threads inside a call, but its result must not depend on the thread
-//!   count (colour the constraints; never accumulate floats in a thread-dependent order).
+//! * A group may split a call over the host's thread team, `ctx.team` ([`team`]: one call
+//!   across the boundary per job), and should start no threads of its own; its result must
+//!   not depend on the thread count (colour the constraints; never accumulate floats in a
+//!   thread-dependent order).
 //!
 //! ## Versioning
 //!
@@ -67,12 +69,14 @@
 pub mod abi;
 pub mod group;
 pub mod params;
+pub mod team;
 pub mod view;
 pub mod xpbd;
 
 pub use abi::*;
 pub use group::{adapt, guard, ConstraintGroup, Factory, KindSpec, PluginDef};
 pub use params::ParamSpec;
+pub use team::{SharedArray, TeamRef};
 pub use view::Particles;
 
 #[doc(hidden)]

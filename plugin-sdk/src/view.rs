@@ -84,6 +84,7 @@ impl<'a> SolveContext<'a> {
             substeps: 1,
             pass: 0,
             passes: 1,
+            team: crate::team::TeamRef::serial(),
         }
     }
 

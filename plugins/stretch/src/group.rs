@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::chebyshev::{Chebyshev, MAX_RHO};
 use crate::distance::{project_distance_hard, project_distance_with, EdgeMaterial, XpbdTerms};
-use crate::spin::{self, SharedArray};
+use nucleus_sdk::team::{span, SharedArray};
 
 /// Smallest valid `rest_length_scale`: the scale must be positive, and a bound that prints
 /// as a plain number keeps the host's parameter tables and messages readable.
@@ -311,14 +311,15 @@ impl ConstraintGroup for StretchGroup {
     }
 
     /// One Gauss-Seidel pass over the edges in batch order, colour by colour. A colour of at
-    /// least `PARALLEL_MIN_EDGES` (256) edges is split into contiguous parts over a team of
-    /// threads (`RAYON_NUM_THREADS`, default the machine's cores; see [`crate::spin`]): its edges
+    /// least `PARALLEL_MIN_EDGES` (256) edges is split into contiguous parts over the host's
+    /// thread team (`ctx.team`: `RAYON_NUM_THREADS`, default the machine's cores; see
+    /// [`nucleus_sdk::team`]): its edges
     /// share no particle, so every edge reads and writes only its own two particles and the
     /// result is bit-identical whatever the thread count. On the 2-core machine the 128 × 128
     /// drape at 40 × 1 runs 1.5× faster on two threads than on one (22.9 → 15.0 ms per frame).
     /// No allocation after the first pass.
     fn project(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
-        let h = ctx.h;
+        let (h, team) = (ctx.h, ctx.team);
         if !h.is_finite() || h <= 0.0 {
             return Err(PluginError::failed(format!(
                 "the substep length must be positive, got {h}"
@@ -332,13 +333,7 @@ impl ConstraintGroup for StretchGroup {
         let (x0, w) = (p.x0, p.inv_mass);
         let x = SharedArray::new(p.x);
         let material = self.material;
-        let parallel = self
-            .batches
-            .iter()
-            .any(|(r, i)| *i && r.len() >= PARALLEL_MIN_EDGES);
-        // The large colours are shared by the plugin's team of threads, held for the whole
-        // pass (`RAYON_NUM_THREADS` or the machine's cores); none on one thread.
-        let mut team = spin::shared_if(parallel);
+        let parts = team.parts();
         let lambda = SharedArray::new(&mut self.lambda);
         // A hard material takes the kernel with the shorter dependency chain.
         let terms = material.terms(h);
@@ -351,12 +346,10 @@ impl ConstraintGroup for StretchGroup {
             let ids = &self.ids[range.clone()];
             let rest = &self.rest[range.clone()];
             let first = range.start;
-            match team.as_mut().and_then(|t| t.as_mut()) {
-                Some(team) if *independent && ids.len() >= PARALLEL_MIN_EDGES => {
-                    let parts = team.parts();
+            match parts {
+                2.. if *independent && ids.len() >= PARALLEL_MIN_EDGES => {
                     team.run(&|part| {
-                        let n = ids.len();
-                        let span = part * n / parts..(part + 1) * n / parts;
+                        let span = span(part, parts, ids.len());
                         // SAFETY: each part takes its own sub-range of this colour's edges:
                         // their multipliers are disjoint slices of `lambda`, and the edges of
                         // one colour share no particle, so the parts touch disjoint positions.

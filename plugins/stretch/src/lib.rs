@@ -85,8 +85,8 @@
 //! position write. On a 128 × 128 cloth this halves the time of a pass; the residual after a
 //! fixed number of passes is a little higher than in the scene's order in some scenes, and
 //! lower at equal time. The colours are also the independent sets the threaded projection splits
-//! over its threads (bit-identical for any thread count; see [`spin`]): one team of threads for
-//! the whole plugin, whatever the number of `stretch` groups.
+//! over the host's thread team (`ctx.team`; bit-identical for any thread count; see
+//! [`nucleus_sdk::team`]): one team for the core and every group of every plugin.
 //!
 //! ## Cost
 //!
@@ -152,7 +152,6 @@ pub mod chebyshev;
 pub mod distance;
 pub mod group;
 pub mod hierarchy;
-pub mod spin;
 pub mod tether;
 
 #[cfg(test)]

@@ -23,9 +23,9 @@
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
-use crate::spin::{self, SharedArray};
 use nucleus_sdk::params::{self, ParamSpec};
 use nucleus_sdk::prelude::*;
+use nucleus_sdk::team::SharedArray;
 use serde::Deserialize;
 
 /// The parameters of the `tether` kind.
@@ -250,11 +250,11 @@ impl ConstraintGroup for TetherGroup {
 
     /// One pass over the tethers in order. A tether moves only its particle (a pin has
     /// infinite mass), and a particle's tethers are consecutive, so from `PARALLEL_MIN_TETHERS`
-    /// (2,048) tethers up the batch is split at particle boundaries over the plugin's thread
-    /// team (see [`crate::spin`]): each particle's tethers run in the same
+    /// (2,048) tethers up the batch is split at particle boundaries over the host's thread
+    /// team (`ctx.team`, see [`nucleus_sdk::team`]): each particle's tethers run in the same
     /// order on one thread, so the result is bit-identical whatever the thread count.
     fn project(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
-        let h = ctx.h;
+        let (h, team) = (ctx.h, ctx.team);
         let p = ctx.particles();
         let (w, len) = (p.inv_mass, p.x.len().min(p.inv_mass.len()));
         if let Some(max) = self.max_index {
@@ -302,13 +302,11 @@ impl ConstraintGroup for TetherGroup {
                 }
             }
         };
-        let mut team = spin::shared_if(n >= PARALLEL_MIN_TETHERS);
-        match team.as_mut().and_then(|t| t.as_mut()) {
-            Some(team) => {
-                let parts = team.parts();
-                team.run(&|part| job(part, parts));
-            }
-            None => job(0, 1),
+        let parts = team.parts();
+        if parts > 1 && n >= PARALLEL_MIN_TETHERS {
+            team.run(&|part| job(part, parts));
+        } else {
+            job(0, 1);
         }
         Ok(())
     }
