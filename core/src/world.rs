@@ -329,8 +329,6 @@ pub struct Simulation {
     end_groups: Vec<usize>,
     /// Kinematic particles whose object has a pin motion or an animated mesh.
     moving_pins: Vec<u32>,
-    /// Scratch: the target of each moving pin at the end of the current substep (m).
-    pin_targets: Vec<[f64; 3]>,
     /// Scratch: each object's pin transform at the current target time.
     object_transforms: Vec<(DQuat, DVec3)>,
     /// Simulated time (s).
@@ -347,10 +345,77 @@ pub struct Simulation {
 /// tuned.
 pub const PARALLEL_MIN_PARTICLES: usize = 4096;
 
-/// Runs `f` over `0..n`: split into the team's parts (each its own contiguous range, by
+// The particle loops of one range, as functions of distinct slices: the compiler may then
+// assume they do not overlap and vectorise each loop without checks (measured: the free-fall
+// substep of 4,096 particles 20.0 µs with the loops written inside the range closures, on
+// slices made from raw pointers, against 18.4 µs before the split).
+
+/// `v += g` (`g` = gravity × h) for every free particle; pins keep their velocity. A select
+/// rather than a branch, so the loop vectorises.
+fn gravity_range(v: &mut [[f64; 3]], inv_mass: &[f64], g: [f64; 3]) {
+    for (v, &w) in v.iter_mut().zip(inv_mass) {
+        let free = w > 0.0;
+        for (c, g) in v.iter_mut().zip(g) {
+            *c = if free { *c + g } else { *c };
+        }
+    }
+}
+
+/// `x0 = x`, then `x += h v` for every free particle.
+fn predict_range(
+    x: &mut [[f64; 3]],
+    x0: &mut [[f64; 3]],
+    v: &[[f64; 3]],
+    inv_mass: &[f64],
+    h: f64,
+) {
+    x0.copy_from_slice(x);
+    for ((x, v), &w) in x.iter_mut().zip(v).zip(inv_mass) {
+        let free = w > 0.0;
+        for (x, v) in x.iter_mut().zip(v) {
+            *x = if free { *x + v * h } else { *x };
+        }
+    }
+}
+
+/// `v = (x − x0) / h`, component by component over the flat arrays.
+fn velocity_range(v: &mut [[f64; 3]], x: &[[f64; 3]], x0: &[[f64; 3]], inv_h: f64) {
+    let (x, x0) = (x.as_flattened(), x0.as_flattened());
+    for ((v, x), x0) in v.as_flattened_mut().iter_mut().zip(x).zip(x0) {
+        *v = (x - x0) * inv_h;
+    }
+}
+
+/// Where moving pin `i` of object `o` goes at `frame_pos` (time in frames): its rest position
+/// under the object's pin transform `(rotation, translation)` about the pivot, or the object's
+/// animated mesh sequence, interpolated between the two frames around `frame_pos`.
+fn pin_target(
+    o: &ObjectData,
+    (rot, trans): (DQuat, DVec3),
+    rest: [f64; 3],
+    i: usize,
+    frame_pos: f64,
+) -> DVec3 {
+    if o.sequence.is_empty() {
+        let pivot = DVec3::from_array(o.pin_motion.pivot);
+        pivot + rot * (DVec3::from_array(rest) - pivot) + trans
+    } else {
+        let last = o.sequence.len() - 1;
+        let f = (frame_pos.floor().max(0.0) as usize).min(last);
+        let g = (f + 1).min(last);
+        let s = (frame_pos - f as f64).clamp(0.0, 1.0);
+        let local = i - o.first as usize;
+        DVec3::from_array(o.sequence[f][local]).lerp(DVec3::from_array(o.sequence[g][local]), s)
+    }
+}
+
+/// Runs `f` over `0..n` (not at all for `n = 0`): split into the team's parts (each its own contiguous range, by
 /// [`span`]) when `n` reaches [`PARALLEL_MIN_PARTICLES`], else in one piece on this thread.
 /// `f` must write only what its range owns; the results are then the same for any team.
 fn for_ranges(team: TeamRef<'_>, n: usize, f: &(dyn Fn(std::ops::Range<usize>) + Sync)) {
+    if n == 0 {
+        return;
+    }
     let parts = team.parts();
     if parts > 1 && n >= PARALLEL_MIN_PARTICLES {
         team.run(&|part| f(span(part, parts, n)));
@@ -531,7 +596,6 @@ impl Simulation {
             force_groups: Vec::new(),
             begin_groups: Vec::new(),
             end_groups: Vec::new(),
-            pin_targets: vec![[0.0; 3]; moving_pins.len()],
             moving_pins,
             object_transforms,
             time: 0.0,
@@ -594,7 +658,9 @@ impl Simulation {
     /// own particle loops and every group's passes run on it. When another simulation holds it
     /// (two stepping at once), this one runs on its own thread, with the same results.
     pub fn substep(&mut self, substep: u32) -> Result<(), StepError> {
-        let guard = if self.threads > 1 {
+        // A scene without groups and too small to split its own loops does not need the team.
+        let wanted = !self.groups.is_empty() || self.particles.len() >= PARALLEL_MIN_PARTICLES;
+        let guard = if self.threads > 1 && wanted {
             team::shared(self.threads)
         } else {
             None
@@ -610,7 +676,7 @@ impl Simulation {
         for k in 0..self.force_groups.len() {
             self.call_group(self.force_groups[k], Stage::Force, substep, 0, 1, team)?;
         }
-        self.predict(h, team);
+        self.predict(h, t1, team);
         for k in 0..self.begin_groups.len() {
             self.call_group(
                 self.begin_groups[k],
@@ -638,33 +704,14 @@ impl Simulation {
         Ok(())
     }
 
+    /// Each object's pin transform at time `t`, for the moving pins' targets (see
+    /// [`pin_target`]).
     fn move_kinematic(&mut self, t: f64) {
         if self.moving_pins.is_empty() {
             return;
         }
         for (o, tr) in self.objects.iter().zip(&mut self.object_transforms) {
             *tr = o.pin_motion.transform(t);
-        }
-        let frame_pos = t * self.settings.frame_rate;
-        for (&i, slot) in self.moving_pins.iter().zip(&mut self.pin_targets) {
-            let i = i as usize;
-            let oi = self.particles.object[i] as usize;
-            let o = &self.objects[oi];
-            let target = if o.sequence.is_empty() {
-                let (rot, trans) = self.object_transforms[oi];
-                let pivot = DVec3::from_array(o.pin_motion.pivot);
-                let rest = DVec3::from_array(self.particles.rest[i]);
-                pivot + rot * (rest - pivot) + trans
-            } else {
-                let last = o.sequence.len() - 1;
-                let f = (frame_pos.floor().max(0.0) as usize).min(last);
-                let g = (f + 1).min(last);
-                let s = (frame_pos - f as f64).clamp(0.0, 1.0);
-                let local = i - o.first as usize;
-                DVec3::from_array(o.sequence[f][local])
-                    .lerp(DVec3::from_array(o.sequence[g][local]), s)
-            };
-            *slot = target.to_array();
         }
     }
 
@@ -676,43 +723,51 @@ impl Simulation {
         for_ranges(team, inv_mass.len().min(p.x.len()), &|r| {
             // SAFETY: each range is its own part of `v` (exclusively borrowed for this call),
             // within its length.
-            let v = unsafe { v.slice(r.start, r.len()) };
-            for (v, &w) in v.iter_mut().zip(&inv_mass[r]) {
-                // A select rather than a branch, so the loop vectorises; pins keep their
-                // velocity.
-                let free = w > 0.0;
-                for (c, g) in v.iter_mut().zip(g) {
-                    *c = if free { *c + g } else { *c };
-                }
-            }
+            gravity_range(unsafe { v.slice(r.start, r.len()) }, &inv_mass[r], g);
         });
     }
 
     /// `x0 = x`, then `x += h v` for every free particle, over the flat arrays (which the
-    /// compiler vectorises); then each moving pin goes to its target, with the velocity that
-    /// takes it there.
-    fn predict(&mut self, h: f64, team: TeamRef<'_>) {
+    /// compiler vectorises); then each moving pin goes to its target at `t`, with the velocity
+    /// that takes it there. The moving pins are listed in particle order, so those of a range
+    /// are a run of the list, and the part that owns the range moves them (a pins-only scene of
+    /// 4,096 moving pins was 1.3× slower on two threads than on one while the main thread moved
+    /// them after the split loop: it had to fetch every pin's position back from the other
+    /// core's cache).
+    fn predict(&mut self, h: f64, t: f64, team: TeamRef<'_>) {
+        let frame_pos = t * self.settings.frame_rate;
+        let (objects, transforms, pins) =
+            (&self.objects, &self.object_transforms, &self.moving_pins);
         let p = &mut self.particles;
-        let (v, inv_mass) = (&p.v, &p.inv_mass);
+        let (inv_mass, object, rest) = (&p.inv_mass, &p.object, &p.rest);
         let n = p.x.len();
-        let (x, x0) = (SharedArray::new(&mut p.x), SharedArray::new(&mut p.x0));
+        let (x, x0, v) = (
+            SharedArray::new(&mut p.x),
+            SharedArray::new(&mut p.x0),
+            SharedArray::new(&mut p.v),
+        );
         for_ranges(team, n, &|r| {
-            // SAFETY: each range is its own part of `x` and `x0` (exclusively borrowed for this
-            // call; every particle array has the same length).
-            let (x, x0) = unsafe { (x.slice(r.start, r.len()), x0.slice(r.start, r.len())) };
-            x0.copy_from_slice(x);
-            for ((x, v), &w) in x.iter_mut().zip(&v[r.clone()]).zip(&inv_mass[r]) {
-                let free = w > 0.0;
-                for (x, v) in x.iter_mut().zip(v) {
-                    *x = if free { *x + v * h } else { *x };
-                }
+            // SAFETY: each range is its own part of `x`, `x0` and `v` (exclusively borrowed for
+            // this call; every particle array has the same length).
+            let (x, x0, v) = unsafe {
+                (
+                    x.slice(r.start, r.len()),
+                    x0.slice(r.start, r.len()),
+                    v.slice(r.start, r.len()),
+                )
+            };
+            predict_range(x, x0, v, &inv_mass[r.clone()], h);
+            let first = pins.partition_point(|&i| (i as usize) < r.start);
+            let end = pins.partition_point(|&i| (i as usize) < r.end);
+            for &i in &pins[first..end] {
+                let i = i as usize;
+                let oi = object[i] as usize;
+                let target = pin_target(&objects[oi], transforms[oi], rest[i], i, frame_pos);
+                let k = i - r.start;
+                v[k] = ((target - DVec3::from_array(x0[k])) / h).to_array();
+                x[k] = target.to_array();
             }
         });
-        for (&i, target) in self.moving_pins.iter().zip(&self.pin_targets) {
-            let i = i as usize;
-            p.v[i] = ((DVec3::from_array(*target) - DVec3::from_array(p.x0[i])) / h).to_array();
-            p.x[i] = *target;
-        }
     }
 
     fn update_velocities(&mut self, h: f64, team: TeamRef<'_>) {
@@ -722,12 +777,12 @@ impl Simulation {
         let v = SharedArray::new(&mut p.v);
         for_ranges(team, x.len(), &|r| {
             // SAFETY: each range is its own part of `v` (exclusively borrowed for this call).
-            let v = unsafe { v.slice(r.start, r.len()) };
-            // Component by component over the flat arrays, which the compiler vectorises.
-            let (x, x0) = (x[r.clone()].as_flattened(), x0[r].as_flattened());
-            for ((v, x), x0) in v.as_flattened_mut().iter_mut().zip(x).zip(x0) {
-                *v = (x - x0) * inv_h;
-            }
+            velocity_range(
+                unsafe { v.slice(r.start, r.len()) },
+                &x[r.clone()],
+                &x0[r],
+                inv_h,
+            );
         });
     }
 
@@ -740,8 +795,7 @@ impl Simulation {
         let v = SharedArray::new(&mut self.particles.v);
         for_ranges(team, n, &|r| {
             // SAFETY: each range is its own part of `v` (exclusively borrowed for this call).
-            let v = unsafe { v.slice(r.start, r.len()) };
-            for v in v.as_flattened_mut() {
+            for v in unsafe { v.slice(r.start, r.len()) }.as_flattened_mut() {
                 *v *= k;
             }
         });

@@ -91,12 +91,13 @@
 //! ## Cost
 //!
 //! One pass over the 48,641 edges of a 128 × 128 cloth, through the plugin's ABI exactly as
-//! the host calls it (`cargo bench -p nucleus-stretch`; 2-core Xeon VM, 2026-11-22):
+//! the host calls it, on a thread team of `RAYON_NUM_THREADS` lent as the host lends its own
+//! (`cargo bench -p nucleus-stretch`; 2-core Xeon VM, 2026-11-23):
 //!
 //! | material | 1 thread | per edge | 2 threads |
 //! |---|---:|---:|---:|
-//! | hard (the default) | 431 µs | 8.9 ns | 225 µs |
-//! | compliant and damped | 890 µs | 18.3 ns | |
+//! | hard (the default) | 431 µs | 8.9 ns | 227 µs |
+//! | compliant and damped | 888 µs | 18.3 ns | 460 µs |
 //!
 //! A pass is bound by the chain of dependent operations of an edge, not by memory: within a
 //! colour the edges are independent, and the processor overlaps as many as its reorder window
@@ -105,6 +106,14 @@
 //! material takes [`distance::project_distance_hard`], without the compliance terms. The form
 //! with unit vectors (two square roots, a dot product and a division between them, and three
 //! divisions per normalisation) took 749 µs for the hard pass on one thread.
+//!
+//! Two more forms were measured and not kept, both against 436 µs for this one: projecting a
+//! colour 32 edges at a time, gathered into one array per component so that the arithmetic
+//! runs four edges per AVX2 instruction (bit-identical to this kernel), took 547–600 µs — the
+//! gather and scatter cost more than the vector arithmetic saved; and one square root per edge
+//! instead of two (the start-direction test on squares, no multiplier) took 445 µs, no gain.
+//! So neither the divider nor the arithmetic bounds the pass; our reading, not measured
+//! further, is the loads and stores of each edge's two particles, scattered over the cloth.
 //!
 //! ## Chebyshev acceleration (optional)
 //!
