@@ -255,7 +255,73 @@ fn grid_has_a_constraint_per_edge() {
     assert_eq!(mesh.edges.len(), 16);
     let group = mesh.group("{}").expect("group");
     assert_eq!(group.constraint_count(), 16);
-    assert_eq!(group.stages(), Stages::BEGIN_SUBSTEP | Stages::PROJECT);
+    assert_eq!(group.stages(), Stages::PROJECT);
+}
+
+#[test]
+fn a_hard_group_keeps_no_multipliers_so_it_needs_no_begin_stage() {
+    let mesh = Mesh::grid(4, 1.0);
+    assert_eq!(mesh.group("{}").expect("hard").stages(), Stages::PROJECT);
+    // A compliant material accumulates λ, and Chebyshev keeps iterates: both reset per substep.
+    for params in [r#"{"compliance": 1e-6}"#, r#"{"chebyshev_rho": 0.5}"#] {
+        let group = mesh.group(params).expect(params);
+        assert_eq!(
+            group.stages(),
+            Stages::BEGIN_SUBSTEP | Stages::PROJECT,
+            "{params}"
+        );
+    }
+    // What the core relies on when it skips the stage: substeps of a hard group give the same
+    // bits with and without `begin_substep`.
+    let run = |begin: bool| {
+        let mut group = mesh.group("{}").expect("hard");
+        let mut state = State::new(&mesh, stretched(&mesh, 1.2));
+        for _ in 0..5 {
+            state.x0.clone_from(&state.x);
+            if begin {
+                group
+                    .begin_substep(&mut state.ctx())
+                    .into_result()
+                    .expect("begin");
+            }
+            for _ in 0..3 {
+                group
+                    .project(&mut state.ctx())
+                    .into_result()
+                    .expect("project");
+            }
+        }
+        state
+            .x
+            .iter()
+            .flatten()
+            .map(|c| c.to_bits())
+            .collect::<Vec<_>>()
+    };
+    let (with, without) = (run(true), run(false));
+    assert_eq!(with, without);
+    let start: Vec<u64> = stretched(&mesh, 1.2)
+        .iter()
+        .flatten()
+        .map(|c| c.to_bits())
+        .collect();
+    assert_ne!(with, start, "the passes moved the particles");
+}
+
+#[test]
+fn only_a_compliant_group_keeps_multipliers() {
+    let mesh = Mesh::grid(3, 1.0);
+    let build = |params: StretchParams| {
+        mesh.with_scene(&[0], |scene| StretchGroup::new(&params, scene))
+            .expect("group")
+    };
+    let hard = build(StretchParams::default());
+    assert!(hard.lambdas().is_empty());
+    let soft = build(StretchParams {
+        compression_compliance: 1e-3,
+        ..StretchParams::default()
+    });
+    assert_eq!(soft.lambdas().len(), soft.ids().len());
 }
 
 #[test]
