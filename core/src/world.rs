@@ -2,7 +2,8 @@
 //!
 //! Per substep of length `h` the step runs these stages, in this order:
 //!
-//! 1. `kinematic` — pinned/animated particles get their target at `t + h`;
+//! 1. `kinematic` — each object's pin transform at `t + h` (its pinned/animated particles
+//!    reach their targets, with the velocity that takes them there, in `predict`);
 //! 2. `forces` — `v += h g` for dynamic particles, then every group's `force` stage;
 //! 3. `predict` — `x0 = x; x = x0 + h v` (kinematic particles: `x = target`);
 //! 4. `begin` — every group's `begin_substep`;
@@ -409,9 +410,10 @@ fn pin_target(
     }
 }
 
-/// Runs `f` over `0..n` (not at all for `n = 0`): split into the team's parts (each its own contiguous range, by
-/// [`span`]) when `n` reaches [`PARALLEL_MIN_PARTICLES`], else in one piece on this thread.
-/// `f` must write only what its range owns; the results are then the same for any team.
+/// Runs `f` over `0..n` (not at all for `n = 0`): split into the team's parts (each its own
+/// contiguous range, by [`span`]) when `n` reaches [`PARALLEL_MIN_PARTICLES`], else in one piece
+/// on this thread. `f` must write only what its range owns; the results are then the same for
+/// any team.
 fn for_ranges(team: TeamRef<'_>, n: usize, f: &(dyn Fn(std::ops::Range<usize>) + Sync)) {
     if n == 0 {
         return;
@@ -422,6 +424,21 @@ fn for_ranges(team: TeamRef<'_>, n: usize, f: &(dyn Fn(std::ops::Range<usize>) +
     } else {
         f(0..n);
     }
+}
+
+/// [`for_ranges`] over `0..items.len()`, each range with its own part of `items` to write.
+fn for_ranges_mut<T: Send>(
+    team: TeamRef<'_>,
+    items: &mut [T],
+    f: &(dyn Fn(std::ops::Range<usize>, &mut [T]) + Sync),
+) {
+    let n = items.len();
+    let shared = SharedArray::new(items);
+    for_ranges(team, n, &|r| {
+        // SAFETY: the ranges of `for_ranges` are disjoint and inside `0..n`, and `items` is
+        // exclusively borrowed for this call.
+        f(r.clone(), unsafe { shared.slice(r.start, r.len()) })
+    });
 }
 
 /// Whether every component is finite: no component has an all-ones exponent (NaN or ±∞).
@@ -671,7 +688,7 @@ impl Simulation {
             .map_or(TeamRef::serial(), TeamRef::new);
         let h = self.h();
         let t1 = self.time + h;
-        self.move_kinematic(t1);
+        self.update_pin_transforms(t1);
         self.apply_gravity(h, team);
         for k in 0..self.force_groups.len() {
             self.call_group(self.force_groups[k], Stage::Force, substep, 0, 1, team)?;
@@ -705,8 +722,8 @@ impl Simulation {
     }
 
     /// Each object's pin transform at time `t`, for the moving pins' targets (see
-    /// [`pin_target`]).
-    fn move_kinematic(&mut self, t: f64) {
+    /// [`pin_target`]; `predict` moves the pins).
+    fn update_pin_transforms(&mut self, t: f64) {
         if self.moving_pins.is_empty() {
             return;
         }
@@ -719,12 +736,7 @@ impl Simulation {
         let g = (DVec3::from_array(self.settings.gravity) * h).to_array();
         let p = &mut self.particles;
         let inv_mass = &p.inv_mass;
-        let v = SharedArray::new(&mut p.v);
-        for_ranges(team, inv_mass.len().min(p.x.len()), &|r| {
-            // SAFETY: each range is its own part of `v` (exclusively borrowed for this call),
-            // within its length.
-            gravity_range(unsafe { v.slice(r.start, r.len()) }, &inv_mass[r], g);
-        });
+        for_ranges_mut(team, &mut p.v, &|r, v| gravity_range(v, &inv_mass[r], g));
     }
 
     /// `x0 = x`, then `x += h v` for every free particle, over the flat arrays (which the
@@ -774,15 +786,8 @@ impl Simulation {
         let p = &mut self.particles;
         let inv_h = 1.0 / h;
         let (x, x0) = (&p.x, &p.x0);
-        let v = SharedArray::new(&mut p.v);
-        for_ranges(team, x.len(), &|r| {
-            // SAFETY: each range is its own part of `v` (exclusively borrowed for this call).
-            velocity_range(
-                unsafe { v.slice(r.start, r.len()) },
-                &x[r.clone()],
-                &x0[r],
-                inv_h,
-            );
+        for_ranges_mut(team, &mut p.v, &|r, v| {
+            velocity_range(v, &x[r.clone()], &x0[r], inv_h)
         });
     }
 
@@ -791,11 +796,8 @@ impl Simulation {
             return;
         }
         let k = (-self.settings.damping * h).exp();
-        let n = self.particles.v.len();
-        let v = SharedArray::new(&mut self.particles.v);
-        for_ranges(team, n, &|r| {
-            // SAFETY: each range is its own part of `v` (exclusively borrowed for this call).
-            for v in unsafe { v.slice(r.start, r.len()) }.as_flattened_mut() {
+        for_ranges_mut(team, &mut self.particles.v, &|_, v| {
+            for v in v.as_flattened_mut() {
                 *v *= k;
             }
         });
@@ -850,8 +852,9 @@ impl Simulation {
         }
         if self.settings.check_finite {
             let (bad_x, bad_v) = (AtomicBool::new(false), AtomicBool::new(false));
+            // `x` and `v` have one length: every particle array does.
             let (x, v) = (&p.x, &p.v);
-            for_ranges(team, x.len().min(v.len()), &|r| {
+            for_ranges(team, x.len(), &|r| {
                 if !all_finite(&x[r.clone()]) {
                     bad_x.store(true, Ordering::Relaxed);
                 }
@@ -859,11 +862,9 @@ impl Simulation {
                     bad_v.store(true, Ordering::Relaxed);
                 }
             });
-            // Arrays of unequal length cannot come out of a step; checked whole all the same.
-            let tail = |a: &[[f64; 3]]| all_finite(&a[x.len().min(v.len())..]);
-            let what = if bad_x.into_inner() || !tail(x) {
+            let what = if bad_x.into_inner() {
                 Some("position")
-            } else if bad_v.into_inner() || !tail(v) {
+            } else if bad_v.into_inner() {
                 Some("velocity")
             } else {
                 None

@@ -366,8 +366,17 @@ impl SyncJob {
 /// A raw pointer to the first element of an array the parts of one job share, each part
 /// reading and writing only the elements it owns. A method gives the addresses, so that a
 /// closure captures the whole wrapper (which is `Sync`), not the raw pointer inside it.
-#[derive(Clone, Copy, Debug)]
+#[derive(Debug)]
 pub struct SharedArray<T>(*mut T);
+
+// Copied by hand: a derive would ask `T: Copy`, and the pointer is copyable whatever `T` is.
+impl<T> Clone for SharedArray<T> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+
+impl<T> Copy for SharedArray<T> {}
 
 impl<T> SharedArray<T> {
     /// The array `items`, for as long as the caller does not use it otherwise.

@@ -132,14 +132,41 @@ pub struct StretchGroup {
 /// 1.26 ms; 512 was slower than both on the 32 × 32 drape (9.4 ms).
 const PARALLEL_MIN_EDGES: usize = 256;
 
-/// Projects `ids[k]` for every `k`, in order. A hard material (`HARD`) keeps no multipliers:
-/// `lambda` is not used (pass it empty).
+/// Projects the hard edges `ids[k]` for every `k`, in order: no multipliers, since the hard
+/// step never reads them.
 ///
 /// # Safety
 /// `x` points to at least `max index + 1` positions, valid for the duration of the call, and
 /// no other thread reads or writes the positions of these edges' particles meanwhile.
-#[allow(clippy::too_many_arguments)]
-unsafe fn project_edges<const HARD: bool>(
+unsafe fn project_edges_hard(
+    x: SharedArray<DVec3>,
+    x0: &[DVec3],
+    w: &[f64],
+    ids: &[[u32; 2]],
+    rest: &[f64],
+) {
+    for (&[i, j], &rest) in ids.iter().zip(rest) {
+        let (i, j) = (i as usize, j as usize);
+        let (pi, pj) = (x.at(i), x.at(j));
+        // SAFETY: indices are in bounds (checked against the state before the pass) and the
+        // caller guarantees exclusive access to particles i and j.
+        let (xi, xj) = unsafe { (*pi, *pj) };
+        if let Some(c) = project_distance_hard([xi, xj], [x0[i], x0[j]], [w[i], w[j]], rest) {
+            // SAFETY: as above.
+            unsafe {
+                *pi = xi + c.dxi;
+                *pj = xj + c.dxj;
+            }
+        }
+    }
+}
+
+/// Projects the compliant edges `ids[k]` for every `k`, in order, accumulating each edge's
+/// multiplier in `lambda[k]`.
+///
+/// # Safety
+/// As [`project_edges_hard`].
+unsafe fn project_edges_compliant(
     x: SharedArray<DVec3>,
     x0: &[DVec3],
     w: &[f64],
@@ -148,33 +175,15 @@ unsafe fn project_edges<const HARD: bool>(
     lambda: &mut [f64],
     terms: &XpbdTerms,
 ) {
-    // SAFETY (both loops): indices are in bounds (checked against the state before the pass)
-    // and the caller guarantees exclusive access to particles i and j.
-    if HARD {
-        for (&[i, j], &rest) in ids.iter().zip(rest) {
-            let (i, j) = (i as usize, j as usize);
-            let (pi, pj) = (x.at(i), x.at(j));
-            // SAFETY: see above.
-            let (xi, xj) = unsafe { (*pi, *pj) };
-            if let Some(c) = project_distance_hard([xi, xj], [x0[i], x0[j]], [w[i], w[j]], rest) {
-                // SAFETY: see above.
-                unsafe {
-                    *pi = xi + c.dxi;
-                    *pj = xj + c.dxj;
-                }
-            }
-        }
-        return;
-    }
     for ((&[i, j], &rest), lambda) in ids.iter().zip(rest).zip(lambda) {
         let (i, j) = (i as usize, j as usize);
         let (pi, pj) = (x.at(i), x.at(j));
-        // SAFETY: see above.
+        // SAFETY: as in `project_edges_hard`.
         let (xi, xj) = unsafe { (*pi, *pj) };
         let start = [x0[i], x0[j]];
         if let Some(c) = project_distance_with([xi, xj], start, [w[i], w[j]], rest, terms, *lambda)
         {
-            // SAFETY: see above.
+            // SAFETY: as above.
             unsafe {
                 *pi = xi + c.dxi;
                 *pj = xj + c.dxj;
@@ -345,9 +354,8 @@ impl ConstraintGroup for StretchGroup {
     /// One Gauss-Seidel pass over the edges in batch order, colour by colour. A colour of at
     /// least `PARALLEL_MIN_EDGES` (256) edges is split into contiguous parts over the host's
     /// thread team (`ctx.team`: `RAYON_NUM_THREADS`, default the machine's cores; see
-    /// [`nucleus_sdk::team`]): its edges
-    /// share no particle, so every edge reads and writes only its own two particles and the
-    /// result is bit-identical whatever the thread count. On the 2-core machine the 128 × 128
+    /// [`nucleus_sdk::team`]): its edges share no particle, so every edge reads and writes only
+    /// its own two particles and the result is bit-identical whatever the thread count. On the 2-core machine the 128 × 128
     /// drape at 40 × 1 runs 1.5× faster on two threads than on one (22.9 → 15.0 ms per frame).
     /// No allocation after the first pass.
     fn project(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
@@ -364,49 +372,37 @@ impl ConstraintGroup for StretchGroup {
         }
         let (x0, w) = (p.x0, p.inv_mass);
         let x = SharedArray::new(p.x);
-        let material = self.material;
         let parts = team.parts();
         let lambda = SharedArray::new(&mut self.lambda);
-        // A hard material takes the kernel with the shorter dependency chain.
-        let terms = material.terms(h);
-        let hard = self.hard;
-        let kernel = if hard {
-            project_edges::<true>
-        } else {
-            project_edges::<false>
+        let (ids, rest, hard) = (&self.ids[..], &self.rest[..], self.hard);
+        let terms = self.material.terms(h);
+        // Projects the edges `start..start + len` of the batch. Called below only with a whole
+        // batch, or with the disjoint parts of one colour at once.
+        let project_range = |start: usize, len: usize| {
+            let (ids, rest) = (&ids[start..start + len], &rest[start..start + len]);
+            // SAFETY: a whole batch runs on this thread alone; the parts of one colour share
+            // no particle and take disjoint ranges of the multipliers (which a compliant group
+            // holds one per edge). `x` comes from the exclusive borrow of the positions held for
+            // this whole call, and the indices were checked above.
+            unsafe {
+                if hard {
+                    // The kernel with the shorter dependency chain.
+                    project_edges_hard(x, x0, w, ids, rest)
+                } else {
+                    let lambda = lambda.slice(start, len);
+                    project_edges_compliant(x, x0, w, ids, rest, lambda, &terms)
+                }
+            }
         };
         for (range, independent) in &self.batches {
-            let ids = &self.ids[range.clone()];
-            let rest = &self.rest[range.clone()];
-            let first = range.start;
             match parts {
-                2.. if *independent && ids.len() >= PARALLEL_MIN_EDGES => {
+                2.. if *independent && range.len() >= PARALLEL_MIN_EDGES => {
                     team.run(&|part| {
-                        let span = span(part, parts, ids.len());
-                        // SAFETY: each part takes its own sub-range of this colour's edges:
-                        // their multipliers are disjoint slices of `lambda`, and the edges of
-                        // one colour share no particle, so the parts touch disjoint positions.
-                        // `x` comes from the exclusive borrow of the positions held for this
-                        // whole call, and the indices were checked above.
-                        unsafe {
-                            let lambda = match hard {
-                                true => &mut [],
-                                false => lambda.slice(first + span.start, span.len()),
-                            };
-                            kernel(x, x0, w, &ids[span.clone()], &rest[span], lambda, &terms)
-                        }
+                        let span = span(part, parts, range.len());
+                        project_range(range.start + span.start, span.len())
                     });
                 }
-                _ => {
-                    // SAFETY: as above, on this thread only.
-                    unsafe {
-                        let lambda = match hard {
-                            true => &mut [],
-                            false => lambda.slice(first, ids.len()),
-                        };
-                        kernel(x, x0, w, ids, rest, lambda, &terms)
-                    }
-                }
+                _ => project_range(range.start, range.len()),
             }
         }
         if let Some(c) = self.chebyshev.as_mut() {

@@ -158,7 +158,7 @@ pub struct TetherGroup {
     max_index: Option<u32>,
 }
 
-/// From this many tethers a pass is shared by the plugin's thread team: a pass of 2,048
+/// From this many tethers a pass is shared by the host's thread team (`ctx.team`): a pass of 2,048
 /// tethers takes about 10 µs, a few times the team's hand-off. Chosen, not tuned.
 const PARALLEL_MIN_TETHERS: usize = 2048;
 
