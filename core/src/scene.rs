@@ -594,6 +594,17 @@ impl Scene {
         if s.substeps == 0 {
             return Err(self.invalid_near("substeps", "substeps must be at least 1"));
         }
+        let h = 1.0 / (s.frame_rate * f64::from(s.substeps));
+        if !positive(h) {
+            return Err(self.invalid_near(
+                "frame_rate",
+                format!(
+                    "the substep length 1 / (frame_rate × substeps) = {h:e} s is not a \
+                     positive finite number (frame_rate {:e}, substeps {})",
+                    s.frame_rate, s.substeps
+                ),
+            ));
+        }
         if s.iterations == 0 {
             return Err(self.invalid_near("iterations", "iterations must be at least 1"));
         }

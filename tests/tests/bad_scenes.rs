@@ -1,6 +1,7 @@
 //! Bad scenes get a clear error with `file:line:col`, a non-zero exit, and no output that
 //! claims to be complete: malformed TOML, an unknown field, an unknown kind, a missing OBJ
-//! file, a pin index out of range, NaN or negative mass, zero substeps.
+//! file, a pin index out of range, NaN or negative mass, zero substeps, a substep length that
+//! under- or overflows.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -254,6 +255,22 @@ fn zero_substeps_is_refused() {
         3,
         "substeps must be at least 1",
     );
+}
+
+#[test]
+fn a_substep_length_that_is_not_a_positive_finite_number_is_refused() {
+    // 1 / (1e308 × 2) underflows to 0 s; 1 / (1e-310 × 2) overflows to infinity.
+    for (rate, h) in [("1e308", "0e0 s"), ("1e-310", "inf s")] {
+        assert_error_at(
+            "substep-length",
+            &replace(
+                "substeps = 2",
+                &format!("frame_rate = {rate}\nsubsteps = 2"),
+            ),
+            3,
+            &format!("the substep length 1 / (frame_rate × substeps) = {h}"),
+        );
+    }
 }
 
 #[test]
