@@ -7,6 +7,7 @@
 //! struct.
 
 use serde::de::DeserializeOwned;
+use serde::Serialize;
 use serde_json::{Map, Value};
 
 use crate::abi::{ParamInfo, ParamType, PluginError};
@@ -168,6 +169,26 @@ pub fn validate_json(json: &str, infos: &[ParamInfo]) -> Result<String, PluginEr
             .map_err(|e| PluginError::bad_parameter("", format!("not valid JSON: {e}")))?
     };
     Ok(Value::Object(validate(&value, infos)?).to_string())
+}
+
+/// Checks a plugin's own parameter struct against its descriptions (the [`validate`] a
+/// group's constructor runs on parameters built in code rather than parsed from a scene);
+/// an error names the parameter.
+///
+/// ```
+/// use nucleus_sdk::params::{validate_against, ParamSpec};
+/// #[derive(serde::Serialize)]
+/// struct Params { stiffness: f64 }
+/// let specs = [ParamSpec::number("stiffness", 1.0).range(0.0, 1.0)];
+/// assert!(validate_against(&Params { stiffness: 0.5 }, &specs).is_ok());
+/// let e = validate_against(&Params { stiffness: 2.0 }, &specs).unwrap_err();
+/// assert_eq!(e.subject.as_str(), "stiffness");
+/// ```
+pub fn validate_against<T: Serialize>(params: &T, specs: &[ParamSpec]) -> Result<(), PluginError> {
+    let infos: Vec<_> = specs.iter().map(ParamSpec::info).collect();
+    let value = serde_json::to_value(params)
+        .map_err(|e| PluginError::failed(format!("cannot serialize parameters: {e}")))?;
+    validate(&value, &infos).map(|_| ())
 }
 
 /// Deserializes validated parameters into the plugin's own struct. A failure names the

@@ -5,7 +5,7 @@
 use std::time::Duration;
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
-use nucleus_sdk::abi_stable::std_types::{RSlice, RStr};
+use nucleus_sdk::abi_stable::std_types::RSlice;
 use nucleus_sdk::prelude::*;
 
 /// Particles per axis of the cloud.
@@ -24,30 +24,13 @@ fn project_pass(c: &mut Criterion) {
     let inv_mass = vec![1000.0; count];
     let points: Vec<u32> = (0..count as u32).collect();
     let objects = [ObjectView {
-        name: RStr::from_str("cloud"),
-        first: 0,
-        count: count as u32,
         points: RSlice::from_slice(&points),
-        edges: RSlice::EMPTY,
-        edge_triangle_count: RSlice::EMPTY,
-        triangles: RSlice::EMPTY,
-        triangle_tet_count: RSlice::EMPTY,
-        tets: RSlice::EMPTY,
-        triangle_pairs: RSlice::EMPTY,
-        edge_pairs: RSlice::EMPTY,
-        boundary_edges: RSlice::EMPTY,
-        closed: 0,
-        manifold: 1,
+        ..ObjectView::new("cloud", 0, count as u32)
     }];
     let scene = SceneView {
-        objects: RSlice::from_slice(&objects),
-        targets: RSlice::from_slice(&[0]),
-        rest: RSlice::from_slice(&rest),
-        inv_mass: RSlice::from_slice(&inv_mass),
-        attributes: RSlice::EMPTY,
         gravity: [0.0, -9.81, 0.0],
-        frame_dt: 1.0 / 60.0,
         substeps: 10,
+        ..SceneView::new(&objects, &[0], &rest, &inv_mass)
     };
     let kind = nucleus_template_attract::KIND;
     let mut group = nucleus_template_attract::nucleus_plugin()

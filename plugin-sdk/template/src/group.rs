@@ -62,10 +62,7 @@ impl AttractParams {
     /// the factory runs, but in-process callers may not), and what a range cannot say —
     /// `max_distance`, when set, must exceed `radius`. An error names the parameter.
     pub fn validate(&self) -> Result<(), PluginError> {
-        let infos: Vec<_> = Self::specs().iter().map(ParamSpec::info).collect();
-        let value = nucleus_sdk::serde_json::to_value(self)
-            .map_err(|e| PluginError::failed(format!("cannot serialize parameters: {e}")))?;
-        params::validate(&value, &infos)?;
+        params::validate_against(self, &Self::specs())?;
         if self.max_distance > 0.0 && self.max_distance <= self.radius {
             return Err(PluginError::bad_parameter(
                 "max_distance",
@@ -113,33 +110,13 @@ impl AttractGroup {
     /// object whose particles lie outside the scene's (naming the object).
     pub fn new(params: &AttractParams, scene: &SceneView<'_>) -> Result<Self, PluginError> {
         params.validate()?;
-        let objects = scene.objects.as_slice();
         let inv_mass = scene.inv_mass.as_slice();
-        let mut targets: Vec<usize> = Vec::with_capacity(scene.targets.len());
-        for &t in scene.targets.as_slice() {
-            let object = objects.get(t as usize).ok_or_else(|| {
-                PluginError::failed(format!(
-                    "target {t} is not an object of the scene ({} objects)",
-                    objects.len()
-                ))
-            })?;
-            if object.particles().end > inv_mass.len() {
-                return Err(PluginError::bad_object(
-                    object.name.as_str(),
-                    format!(
-                        "particles {:?} are outside the scene's {} particles",
-                        object.particles(),
-                        inv_mass.len()
-                    ),
-                ));
-            }
-            targets.push(t as usize);
-        }
-        targets.sort_unstable();
-        targets.dedup();
+        // Each target once, checked against the scene; in object order, so that `ids` ascend.
+        let mut targets = scene.unique_targets()?;
+        targets.sort_unstable_by_key(|&(t, _)| t);
         let ids: Vec<u32> = targets
             .iter()
-            .flat_map(|&t| objects[t].particles())
+            .flat_map(|(_, o)| o.particles())
             .filter(|&i| inv_mass[i] > 0.0)
             .map(|i| i as u32)
             .collect();
@@ -160,14 +137,9 @@ impl AttractGroup {
         &self.attractor
     }
 
-    /// Refuses particle slices too short for the group's indices.
-    fn check_particles(&self, len: usize) -> Result<(), PluginError> {
-        match self.ids.last() {
-            Some(&m) if m as usize >= len => Err(PluginError::failed(format!(
-                "the group refers to particle {m} but the state has {len} particles"
-            ))),
-            _ => Ok(()),
-        }
+    /// The largest particle index of the group (`ids` ascend).
+    fn max_index(&self) -> Option<u32> {
+        self.ids.last().copied()
     }
 }
 
@@ -189,14 +161,10 @@ impl ConstraintGroup for AttractGroup {
 
     /// One pass over the particles in index order: deterministic, no allocation.
     fn project(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
-        let h = ctx.h;
-        if !h.is_finite() || h <= 0.0 {
-            return Err(PluginError::failed(format!(
-                "the substep length must be positive, got {h}"
-            )));
-        }
+        // The checks every group makes before using `h` and indexing the state.
+        let h = ctx.substep_length()?;
+        ctx.check_holds(self.max_index())?;
         let p = ctx.particles();
-        self.check_particles(p.x.len().min(p.inv_mass.len()))?;
         let (x, w) = (p.x, p.inv_mass);
         let attractor = self.attractor;
         for (&i, lambda) in self.ids.iter().zip(&mut self.lambda) {

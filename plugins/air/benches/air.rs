@@ -6,7 +6,7 @@
 use std::time::Duration;
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
-use nucleus_sdk::abi_stable::std_types::{RSlice, RStr};
+use nucleus_sdk::abi_stable::std_types::RSlice;
 use nucleus_sdk::prelude::*;
 use nucleus_sdk::GroupBox;
 
@@ -43,30 +43,14 @@ fn cloth() -> Cloth {
 fn group(cloth: &Cloth, params: &str) -> GroupBox {
     let tet_counts = vec![0u32; cloth.triangles.len()];
     let objects = [ObjectView {
-        name: RStr::from_str("cloth"),
-        first: 0,
-        count: N * N,
-        points: RSlice::EMPTY,
-        edges: RSlice::EMPTY,
-        edge_triangle_count: RSlice::EMPTY,
         triangles: RSlice::from_slice(&cloth.triangles),
         triangle_tet_count: RSlice::from_slice(&tet_counts),
-        tets: RSlice::EMPTY,
-        triangle_pairs: RSlice::EMPTY,
-        edge_pairs: RSlice::EMPTY,
-        boundary_edges: RSlice::EMPTY,
-        closed: 0,
-        manifold: 1,
+        ..ObjectView::new("cloth", 0, N * N)
     }];
     let scene = SceneView {
-        objects: RSlice::from_slice(&objects),
-        targets: RSlice::from_slice(&[0]),
-        rest: RSlice::from_slice(&cloth.rest),
-        inv_mass: RSlice::from_slice(&cloth.inv_mass),
-        attributes: RSlice::EMPTY,
         gravity: [0.0, -9.81, 0.0],
-        frame_dt: 1.0 / 60.0,
         substeps: 10,
+        ..SceneView::new(&objects, &[0], &cloth.rest, &cloth.inv_mass)
     };
     match nucleus_air::nucleus_plugin().create_group("air", params, &scene) {
         Ok(g) => g,

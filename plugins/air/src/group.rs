@@ -123,10 +123,7 @@ impl AirParams {
     /// Checks the values against [`specs`](Self::specs) and the wind direction against
     /// zero; an error names the parameter.
     pub fn validate(&self) -> Result<(), PluginError> {
-        let infos: Vec<_> = Self::specs().iter().map(ParamSpec::info).collect();
-        let value = nucleus_sdk::serde_json::to_value(self)
-            .map_err(|e| PluginError::failed(format!("cannot serialize parameters: {e}")))?;
-        params::validate(&value, &infos)?;
+        params::validate_against(self, &Self::specs())?;
         let d = DVec3::from_array(self.wind_direction);
         let len = d.length();
         if !(len.is_finite() && len > 1e-12) {
@@ -218,23 +215,12 @@ impl AirGroup {
     /// (naming the object); a target index outside the scene.
     pub fn new(params: &AirParams, scene: &SceneView<'_>) -> Result<Self, PluginError> {
         params.validate()?;
-        let objects = scene.objects.as_slice();
         let particle_count = scene.rest.len().min(scene.inv_mass.len());
 
-        let mut used = vec![false; objects.len()];
         let mut global_triangles = Vec::new();
         let mut global_edges = Vec::new();
         let mut global_points = Vec::new();
-        for &t in scene.targets.as_slice() {
-            let object = objects.get(t as usize).ok_or_else(|| {
-                PluginError::failed(format!(
-                    "target {t} is not an object of the scene ({} objects)",
-                    objects.len()
-                ))
-            })?;
-            if std::mem::replace(&mut used[t as usize], true) {
-                continue;
-            }
+        for (_, object) in scene.unique_targets()? {
             let name = object.name.as_str();
             let range = object.first as usize..object.first as usize + object.count as usize;
             let check = |ids: &[u32], what: &str| -> Result<(), PluginError> {
@@ -367,30 +353,19 @@ impl AirGroup {
         &self.totals
     }
 
-    /// Refuses particle slices too short for the group's indices.
-    fn check_particles(&self, len: usize) -> Result<(), PluginError> {
-        match self.particles.last() {
-            Some(&m) if m as usize >= len => Err(PluginError::failed(format!(
-                "the group refers to particle {m} but the state has {len} particles"
-            ))),
-            _ => Ok(()),
-        }
+    /// The largest particle index of the group (its particles are sorted).
+    fn max_index(&self) -> Option<u32> {
+        self.particles.last().copied()
     }
 
     /// The force stage: the air's force on every element from the positions and velocities
     /// at the start of the substep, split equally over the element's vertices, applied as
     /// `Δv = h w F / (1 + h w β)` to every dynamic particle. Allocates nothing.
     fn apply(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
-        let h = ctx.h;
-        if !(h.is_finite() && h > 0.0) {
-            return Err(PluginError::failed(format!(
-                "the substep length h = {h} is not positive"
-            )));
-        }
+        let h = ctx.substep_length()?;
+        ctx.check_holds(self.max_index())?;
         let time = ctx.time;
         let p = ctx.particles();
-        let len = p.x.len().min(p.v.len()).min(p.inv_mass.len());
-        self.check_particles(len)?;
         let flags = p.flags;
         let (x, v, inv_mass) = (&*p.x, &mut *p.v, p.inv_mass);
         let ids = &self.particles;
@@ -458,8 +433,7 @@ impl AirGroup {
     fn relative_speeds<'s>(&'s self, ctx: &'s SolveContext<'_>) -> impl Iterator<Item = f64> + 's {
         let (x, v) = (ctx.positions(), ctx.velocities());
         let ids = &self.particles;
-        let len = x.len().min(v.len());
-        let ok = self.check_particles(len).is_ok();
+        let ok = ctx.check_holds(self.max_index()).is_ok();
         let wind = |g: usize| self.wind.at(x[g], ctx.time);
         let rel = move |g: usize| v[g] - wind(g);
         let tris = self.triangles.iter().filter(move |_| ok).map(move |t| {

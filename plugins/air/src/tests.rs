@@ -3,7 +3,7 @@
 //! called through the ABI trait object; and whole scenes through `nucleus-core` with the
 //! plugin registered in-process.
 
-use nucleus_sdk::abi_stable::std_types::{RSlice, RStr};
+use nucleus_sdk::abi_stable::std_types::RSlice;
 use nucleus_sdk::prelude::*;
 use nucleus_sdk::GroupBox;
 
@@ -98,34 +98,21 @@ impl Mesh {
 
     fn object(&self) -> ObjectView<'_> {
         ObjectView {
-            name: RStr::from_str("thing"),
-            first: 0,
-            count: self.rest.len() as u32,
             points: RSlice::from_slice(&self.points),
             edges: RSlice::from_slice(&self.edges),
             edge_triangle_count: RSlice::from_slice(&self.edge_triangle_count),
             triangles: RSlice::from_slice(&self.triangles),
             triangle_tet_count: RSlice::from_slice(&self.triangle_tet_count),
-            tets: RSlice::EMPTY,
-            triangle_pairs: RSlice::EMPTY,
-            edge_pairs: RSlice::EMPTY,
-            boundary_edges: RSlice::EMPTY,
-            closed: 0,
-            manifold: 1,
+            ..ObjectView::new("thing", 0, self.rest.len() as u32)
         }
     }
 
     fn with_scene<R>(&self, targets: &[u32], f: impl FnOnce(&SceneView<'_>) -> R) -> R {
         let objects = [self.object()];
         let scene = SceneView {
-            objects: RSlice::from_slice(&objects),
-            targets: RSlice::from_slice(targets),
-            rest: RSlice::from_slice(&self.rest),
-            inv_mass: RSlice::from_slice(&self.inv_mass),
-            attributes: RSlice::EMPTY,
             gravity: [0.0, -9.81, 0.0],
-            frame_dt: 1.0 / 60.0,
             substeps: 10,
+            ..SceneView::new(&objects, targets, &self.rest, &self.inv_mass)
         };
         f(&scene)
     }

@@ -9,7 +9,7 @@ use std::collections::BTreeMap;
 use std::time::Duration;
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
-use nucleus_sdk::abi_stable::std_types::{RSlice, RStr};
+use nucleus_sdk::abi_stable::std_types::RSlice;
 use nucleus_sdk::prelude::*;
 use nucleus_sdk::{EdgePair, GroupBox, TrianglePair};
 
@@ -95,30 +95,15 @@ fn rope() -> Shape {
 
 fn group(shape: &Shape, kind: &str, params: &str) -> GroupBox {
     let objects = [ObjectView {
-        name: RStr::from_str("shape"),
-        first: 0,
-        count: shape.rest.len() as u32,
-        points: RSlice::EMPTY,
-        edges: RSlice::EMPTY,
-        edge_triangle_count: RSlice::EMPTY,
         triangles: RSlice::from_slice(&shape.triangles),
-        triangle_tet_count: RSlice::EMPTY,
-        tets: RSlice::EMPTY,
         triangle_pairs: RSlice::from_slice(&shape.pairs),
         edge_pairs: RSlice::from_slice(&shape.edge_pairs),
-        boundary_edges: RSlice::EMPTY,
-        closed: 0,
-        manifold: 1,
+        ..ObjectView::new("shape", 0, shape.rest.len() as u32)
     }];
     let scene = SceneView {
-        objects: RSlice::from_slice(&objects),
-        targets: RSlice::from_slice(&[0]),
-        rest: RSlice::from_slice(&shape.rest),
-        inv_mass: RSlice::from_slice(&shape.inv_mass),
-        attributes: RSlice::EMPTY,
         gravity: [0.0, -9.81, 0.0],
-        frame_dt: 1.0 / 60.0,
         substeps: 10,
+        ..SceneView::new(&objects, &[0], &shape.rest, &shape.inv_mass)
     };
     match nucleus_bend::nucleus_plugin().create_group(kind, params, &scene) {
         Ok(g) => g,

@@ -101,10 +101,7 @@ impl BendParams {
 
     /// Checks the values against [`specs`](Self::specs); an error names the parameter.
     pub fn validate(&self, kind: Kind) -> Result<(), PluginError> {
-        let infos: Vec<_> = Self::specs(kind).iter().map(ParamSpec::info).collect();
-        let value = nucleus_sdk::serde_json::to_value(self)
-            .map_err(|e| PluginError::failed(format!("cannot serialize parameters: {e}")))?;
-        params::validate(&value, &infos).map(|_| ())
+        params::validate_against(self, &Self::specs(kind))
     }
 }
 
@@ -260,7 +257,6 @@ impl BendGroup {
         scene: &SceneView<'_>,
     ) -> Result<Self, PluginError> {
         params.validate(kind)?;
-        let objects = scene.objects.as_slice();
         let rest_x = scene.rest_positions();
         let inv_mass = scene.inv_mass.as_slice();
         let particles = rest_x.len().min(inv_mass.len());
@@ -285,17 +281,7 @@ impl BendGroup {
         };
         let all_pinned = |ids: &[u32]| ids.iter().all(|&i| inv_mass[i as usize] == 0.0);
 
-        let mut used = vec![false; objects.len()];
-        for &t in scene.targets.as_slice() {
-            let object = objects.get(t as usize).ok_or_else(|| {
-                PluginError::failed(format!(
-                    "target {t} is not an object of the scene ({} objects)",
-                    objects.len()
-                ))
-            })?;
-            if std::mem::replace(&mut used[t as usize], true) {
-                continue;
-            }
+        for (_, object) in scene.unique_targets()? {
             // Hinges: surface triangle pairs (bend, bend_isometric) or curve chains (twist).
             let hinges: Vec<[u32; 4]> = match kind {
                 Kind::Bend | Kind::BendIsometric => object
@@ -423,15 +409,6 @@ impl BendGroup {
     pub fn skipped(&self) -> u64 {
         self.skipped
     }
-
-    fn check_particles(&self, len: usize) -> Result<(), PluginError> {
-        match self.max_index {
-            Some(m) if m as usize >= len => Err(PluginError::failed(format!(
-                "the group refers to particle {m} but the state has {len} particles"
-            ))),
-            _ => Ok(()),
-        }
-    }
 }
 
 /// Adds `dx` to the particles `ids` of `x`.
@@ -461,14 +438,9 @@ impl ConstraintGroup for BendGroup {
     /// One Gauss-Seidel pass: every hinge, then every angle, each in its batch order.
     /// Deterministic, no allocation.
     fn project(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
-        let h = ctx.h;
-        if !h.is_finite() || h <= 0.0 {
-            return Err(PluginError::failed(format!(
-                "the substep length must be positive, got {h}"
-            )));
-        }
+        let h = ctx.substep_length()?;
+        ctx.check_holds(self.max_index)?;
         let p = ctx.particles();
-        self.check_particles(p.x.len().min(p.inv_mass.len()))?;
         let (x, w) = (p.x, p.inv_mass);
         let alpha = self.compliance;
         let mut skipped = 0;

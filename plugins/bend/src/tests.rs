@@ -7,7 +7,7 @@ use std::f64::consts::PI;
 use std::path::PathBuf;
 
 use nucleus_core::{Registry, Simulation};
-use nucleus_sdk::abi_stable::std_types::{RSlice, RStr};
+use nucleus_sdk::abi_stable::std_types::RSlice;
 use nucleus_sdk::prelude::*;
 use nucleus_sdk::{EdgePair, GroupBox, TrianglePair};
 
@@ -152,20 +152,11 @@ impl Mesh {
 
     fn view(&self) -> ObjectView<'_> {
         ObjectView {
-            name: RStr::from_str("thing"),
-            first: 0,
-            count: self.rest.len() as u32,
-            points: RSlice::EMPTY,
             edges: RSlice::from_slice(&self.edges),
-            edge_triangle_count: RSlice::EMPTY,
             triangles: RSlice::from_slice(&self.triangles),
-            triangle_tet_count: RSlice::EMPTY,
-            tets: RSlice::EMPTY,
             triangle_pairs: RSlice::from_slice(&self.pairs),
             edge_pairs: RSlice::from_slice(&self.edge_pairs),
-            boundary_edges: RSlice::EMPTY,
-            closed: 0,
-            manifold: 1,
+            ..ObjectView::new("thing", 0, self.rest.len() as u32)
         }
     }
 
@@ -173,14 +164,8 @@ impl Mesh {
     fn group(&self, kind: &str, params: &str) -> Result<GroupBox, PluginError> {
         let objects = [self.view()];
         let scene = SceneView {
-            objects: RSlice::from_slice(&objects),
-            targets: RSlice::from_slice(&[0, 0]),
-            rest: RSlice::from_slice(&self.rest),
-            inv_mass: RSlice::from_slice(&self.inv_mass),
-            attributes: RSlice::EMPTY,
-            gravity: [0.0; 3],
-            frame_dt: 1.0 / 60.0,
             substeps: 10,
+            ..SceneView::new(&objects, &[0, 0], &self.rest, &self.inv_mass)
         };
         if kind == "stretch" {
             nucleus_stretch::nucleus_plugin().create_group(kind, params, &scene)

@@ -169,27 +169,12 @@ impl CollisionGroup {
     /// the surface of tetrahedral solids), their settings and the colliders.
     pub fn new(params: &CollisionParams, scene: &SceneView<'_>) -> Result<Self, PluginError> {
         params.validate_numbers()?;
-        let objects = scene.objects.as_slice();
         let rest = scene.rest_positions().to_vec();
         let inv_mass = scene.inv_mass.as_slice();
         let n = rest.len().min(inv_mass.len());
 
-        let mut targets: Vec<u32> = Vec::new();
-        for &t in scene.targets.as_slice() {
-            if t as usize >= objects.len() {
-                return Err(PluginError::failed(format!(
-                    "target {t} is not an object of the scene ({} objects)",
-                    objects.len()
-                )));
-            }
-            if !targets.contains(&t) {
-                targets.push(t);
-            }
-        }
-        let names: Vec<&str> = targets
-            .iter()
-            .map(|&t| objects[t as usize].name.as_str())
-            .collect();
+        let targets = scene.unique_targets()?;
+        let names: Vec<&str> = targets.iter().map(|(_, o)| o.name.as_str()).collect();
         let settings = params.object_settings(&names)?;
         let excluded = params.excluded_pairs(&names)?;
         let colliders = params.colliders()?;
@@ -257,17 +242,10 @@ impl CollisionGroup {
         };
 
         let mut dynamic_objects = Vec::new();
-        for (k, &t) in targets.iter().enumerate() {
-            let o = &objects[t as usize];
+        for (k, &(_, o)) in targets.iter().enumerate() {
             let s = g.settings[k];
-            let range = o.first as usize..o.first as usize + o.count as usize;
+            let range = o.particles();
             let bad = |m: String| PluginError::bad_object(o.name.as_str(), m);
-            if range.end > n {
-                return Err(bad(format!(
-                    "particles {}..{} are outside the scene's {n}",
-                    range.start, range.end
-                )));
-            }
             let check = |i: u32| -> Result<(), PluginError> {
                 if range.contains(&(i as usize)) {
                     Ok(())
@@ -1400,7 +1378,7 @@ impl ConstraintGroup for CollisionGroup {
                 ..FrameStats::default()
             };
         }
-        let (h, time) = (ctx.h, ctx.time);
+        let (h, time) = (ctx.substep_length()?, ctx.time);
         let p = ctx.particles();
         self.check_state(p.x.len().min(p.x0.len()).min(p.inv_mass.len()))?;
         let n = self.x_pred.len();

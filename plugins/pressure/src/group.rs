@@ -4,7 +4,6 @@
 
 use glam::DVec3;
 use nucleus_sdk::prelude::*;
-use nucleus_sdk::serde_json;
 use serde::{Deserialize, Serialize};
 
 use crate::geometry::{Cubic, Measure, Surface};
@@ -22,14 +21,6 @@ pub const ATMOSPHERE: f64 = 101_325.0;
 // ---------------------------------------------------------------------------------------------
 // Parameters
 // ---------------------------------------------------------------------------------------------
-
-/// Checks `params` against `specs`; an error names the parameter.
-fn validate_against<T: Serialize>(params: &T, specs: &[ParamSpec]) -> Result<(), PluginError> {
-    let infos: Vec<_> = specs.iter().map(ParamSpec::info).collect();
-    let value = serde_json::to_value(params)
-        .map_err(|e| PluginError::failed(format!("cannot serialize parameters: {e}")))?;
-    params::validate(&value, &infos).map(|_| ())
-}
 
 /// The parameters of the `pressure` kind (Maya's manual pressure), as written in a scene.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -78,7 +69,7 @@ impl PressureParams {
 
     /// Checks the values against [`specs`](Self::specs); an error names the parameter.
     pub fn validate(&self) -> Result<(), PluginError> {
-        validate_against(self, &Self::specs())
+        params::validate_against(self, &Self::specs())
     }
 }
 
@@ -136,7 +127,7 @@ impl GasParams {
     /// Checks the values against [`specs`](Self::specs) and that the start pressure is above
     /// vacuum; an error names the parameter.
     pub fn validate(&self) -> Result<(), PluginError> {
-        validate_against(self, &Self::specs())?;
+        params::validate_against(self, &Self::specs())?;
         if self.incompressibility + self.start_pressure <= 0.0 {
             return Err(PluginError::bad_parameter(
                 "start_pressure",
@@ -212,26 +203,15 @@ impl Chambers {
     /// The chambers of every target object of `scene` (each object once; objects without
     /// triangles are skipped). Closed chambers are turned outward (positive rest volume).
     pub fn new(scene: &SceneView<'_>, open: OpenOrientation) -> Result<Self, PluginError> {
-        let objects = scene.objects.as_slice();
         let rest_x = scene.rest_positions();
         let particles = rest_x.len().min(scene.inv_mass.len());
-        let mut used = vec![false; objects.len()];
         let mut out = Self {
             vertex_start: vec![0],
             triangle_start: vec![0],
             loop_start: vec![0],
             ..Self::default()
         };
-        for &t in scene.targets.as_slice() {
-            let object = objects.get(t as usize).ok_or_else(|| {
-                PluginError::failed(format!(
-                    "target {t} is not an object of the scene ({} objects)",
-                    objects.len()
-                ))
-            })?;
-            if std::mem::replace(&mut used[t as usize], true) {
-                continue;
-            }
+        for (_, object) in scene.unique_targets()? {
             for mut chamber in topology::chambers(object, particles)? {
                 let measure = |c: &topology::Chamber| {
                     let loops = loop_ranges(&c.loops);
@@ -408,16 +388,6 @@ impl Chambers {
         let range = self.vertex_start[c]..self.vertex_start[c + 1];
         self.surface(c).displace(x, &self.directions[range], w, t);
     }
-
-    /// Refuses particle slices too short for the chambers' indices.
-    fn check_particles(&self, len: usize) -> Result<(), PluginError> {
-        match self.max_index {
-            Some(m) if m as usize >= len => Err(PluginError::failed(format!(
-                "the group refers to particle {m} but the state has {len} particles"
-            ))),
-            _ => Ok(()),
-        }
-    }
 }
 
 /// The triangles in global particle indices.
@@ -439,17 +409,6 @@ fn loop_ranges(loops: &[Vec<u32>]) -> Vec<[u32; 2]> {
             r
         })
         .collect()
-}
-
-/// Refuses a non-positive or non-finite substep.
-fn check_h(h: f64) -> Result<(), PluginError> {
-    if h.is_finite() && h > 0.0 {
-        Ok(())
-    } else {
-        Err(PluginError::failed(format!(
-            "the substep length must be positive, got {h}"
-        )))
-    }
 }
 
 /// `Σ aᵢ vᵢ / Σ vᵢ`, or the plain mean if the weights do not sum to a positive number.
@@ -555,11 +514,9 @@ impl ConstraintGroup for PressureGroup {
     /// compliant one the pressure it applied over the last substep (the warm start of its
     /// `λ`); a hard one pushes only in `project`.
     fn force(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
-        let h = ctx.h;
-        check_h(h)?;
+        let h = ctx.substep_length()?;
+        ctx.check_holds(self.chambers.max_index)?;
         let p = ctx.particles();
-        self.chambers
-            .check_particles(p.x.len().min(p.v.len()).min(p.inv_mass.len()))?;
         for c in 0..self.chambers.len() {
             self.chambers.freeze(c, p.x, p.inv_mass);
             let pressure = if !self.chambers.is_closed(c) {
@@ -593,11 +550,9 @@ impl ConstraintGroup for PressureGroup {
     /// One XPBD step of each closed chamber's volume constraint, in chamber order: the volume
     /// at the current positions, the normals frozen at the start of the substep.
     fn project(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
-        let h = ctx.h;
-        check_h(h)?;
+        let h = ctx.substep_length()?;
+        ctx.check_holds(self.chambers.max_index)?;
         let p = ctx.particles();
-        self.chambers
-            .check_particles(p.x.len().min(p.inv_mass.len()))?;
         for c in 0..self.chambers.len() {
             if !self.chambers.is_closed(c) {
                 continue;
@@ -618,7 +573,7 @@ impl ConstraintGroup for PressureGroup {
     fn residual(&self, ctx: &SolveContext<'_>) -> Residual {
         let x = ctx.positions();
         let mut out = Residual::default();
-        if self.chambers.check_particles(x.len()).is_err() {
+        if ctx.check_holds(self.chambers.max_index).is_err() {
             return out;
         }
         let mut sum_sq = 0.0;
@@ -644,7 +599,7 @@ impl ConstraintGroup for PressureGroup {
     /// the chambers weighted by volume).
     fn report(&self, ctx: &SolveContext<'_>, out: &mut Vec<(String, f64)>) {
         let x = ctx.positions();
-        if self.chambers.check_particles(x.len()).is_err() {
+        if ctx.check_holds(self.chambers.max_index).is_err() {
             return;
         }
         let volumes: Vec<f64> = (0..self.chambers.len())
@@ -754,11 +709,9 @@ impl ConstraintGroup for GasGroup {
     /// pressure it applied over the last substep, `vᵢ += h wᵢ p gᵢ` (the warm start of its
     /// `λ`).
     fn force(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
-        let h = ctx.h;
-        check_h(h)?;
+        let h = ctx.substep_length()?;
+        ctx.check_holds(self.chambers.max_index)?;
         let p = ctx.particles();
-        self.chambers
-            .check_particles(p.x.len().min(p.v.len()).min(p.inv_mass.len()))?;
         let GasParams {
             pump_rate,
             air_tightness,
@@ -796,11 +749,9 @@ impl ConstraintGroup for GasGroup {
     /// One implicit Newton step of each chamber's gas, in chamber order: the volume at the
     /// current positions, the normals frozen at the start of the substep.
     fn project(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
-        let h = ctx.h;
-        check_h(h)?;
+        let h = ctx.substep_length()?;
+        ctx.check_holds(self.chambers.max_index)?;
         let p = ctx.particles();
-        self.chambers
-            .check_particles(p.x.len().min(p.inv_mass.len()))?;
         let ambient = self.ambient();
         for c in 0..self.chambers.len() {
             let line = self.chambers.along(c, p.x);
@@ -834,7 +785,7 @@ impl ConstraintGroup for GasGroup {
     fn residual(&self, ctx: &SolveContext<'_>) -> Residual {
         let x = ctx.positions();
         let mut out = Residual::default();
-        if self.chambers.check_particles(x.len()).is_err() {
+        if ctx.check_holds(self.chambers.max_index).is_err() {
             return out;
         }
         let mut sum_sq = 0.0;
@@ -864,7 +815,7 @@ impl ConstraintGroup for GasGroup {
     /// the group's chambers.
     fn report(&self, ctx: &SolveContext<'_>, out: &mut Vec<(String, f64)>) {
         let x = ctx.positions();
-        if self.chambers.check_particles(x.len()).is_err() {
+        if ctx.check_holds(self.chambers.max_index).is_err() {
             return;
         }
         let measured: Vec<(f64, Measure)> = (0..self.chambers.len())

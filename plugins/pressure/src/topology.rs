@@ -268,7 +268,7 @@ pub fn chain_loops(mut edges: Vec<[u32; 2]>) -> Result<Vec<Vec<u32>>, u32> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use nucleus_sdk::abi_stable::std_types::{RSlice, RStr};
+    use nucleus_sdk::abi_stable::std_types::RSlice;
 
     /// An object's topology as the core derives it, built here by hand.
     struct Topo {
@@ -329,20 +329,12 @@ mod tests {
 
         fn chambers(&self) -> Result<Vec<Chamber>, PluginError> {
             let view = ObjectView {
-                name: RStr::from_str("thing"),
-                first: 0,
-                count: self.count,
-                points: RSlice::EMPTY,
-                edges: RSlice::EMPTY,
-                edge_triangle_count: RSlice::EMPTY,
                 triangles: RSlice::from_slice(&self.triangles),
-                triangle_tet_count: RSlice::EMPTY,
-                tets: RSlice::EMPTY,
                 triangle_pairs: RSlice::from_slice(&self.pairs),
-                edge_pairs: RSlice::EMPTY,
                 boundary_edges: RSlice::from_slice(&self.boundary),
                 closed: self.boundary.is_empty() as u8,
                 manifold: self.manifold as u8,
+                ..ObjectView::new("thing", 0, self.count)
             };
             chambers(&view, self.count as usize)
         }

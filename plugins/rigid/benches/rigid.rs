@@ -12,7 +12,6 @@ use std::time::Duration;
 
 use criterion::{black_box, criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 use glam::{DQuat, DVec3};
-use nucleus_sdk::abi_stable::std_types::{RSlice, RStr};
 use nucleus_sdk::prelude::*;
 use nucleus_sdk::GroupBox;
 
@@ -61,33 +60,13 @@ fn scene(per_body: u32, bodies: u32) -> Scene {
 
 fn group(s: &Scene, params: &str) -> GroupBox {
     let objects: Vec<ObjectView<'_>> = (0..s.bodies)
-        .map(|b| ObjectView {
-            name: RStr::from_str(&s.names[b as usize]),
-            first: b * s.counts,
-            count: s.counts,
-            points: RSlice::EMPTY,
-            edges: RSlice::EMPTY,
-            edge_triangle_count: RSlice::EMPTY,
-            triangles: RSlice::EMPTY,
-            triangle_tet_count: RSlice::EMPTY,
-            tets: RSlice::EMPTY,
-            triangle_pairs: RSlice::EMPTY,
-            edge_pairs: RSlice::EMPTY,
-            boundary_edges: RSlice::EMPTY,
-            closed: 0,
-            manifold: 1,
-        })
+        .map(|b| ObjectView::new(&s.names[b as usize], b * s.counts, s.counts))
         .collect();
     let targets: Vec<u32> = (0..s.bodies).collect();
     let view = SceneView {
-        objects: RSlice::from_slice(&objects),
-        targets: RSlice::from_slice(&targets),
-        rest: RSlice::from_slice(&s.rest),
-        inv_mass: RSlice::from_slice(&s.inv_mass),
-        attributes: RSlice::EMPTY,
         gravity: [0.0, -9.81, 0.0],
-        frame_dt: 1.0 / 60.0,
         substeps: 10,
+        ..SceneView::new(&objects, &targets, &s.rest, &s.inv_mass)
     };
     match nucleus_rigid::nucleus_plugin().create_group("rigid", params, &view) {
         Ok(g) => g,

@@ -93,10 +93,7 @@ impl RigidParams {
     /// Checks the values against [`specs`](Self::specs) and each group's own values; an error
     /// names the parameter.
     pub fn validate(&self) -> Result<(), PluginError> {
-        let infos: Vec<_> = Self::specs().iter().map(ParamSpec::info).collect();
-        let value = serde_json::to_value(self)
-            .map_err(|e| PluginError::failed(format!("cannot serialize parameters: {e}")))?;
-        params::validate(&value, &infos)?;
+        params::validate_against(self, &Self::specs())?;
         for (k, g) in self.groups.iter().enumerate() {
             let bad = |m: String| {
                 PluginError::bad_parameter(
@@ -214,40 +211,15 @@ impl RigidGroup {
     /// particles lie outside the scene (naming the object).
     pub fn new(params: &RigidParams, scene: &SceneView<'_>) -> Result<Self, PluginError> {
         params.validate()?;
-        let objects = scene.objects.as_slice();
+        let targets = scene.unique_targets()?;
         let rest_x = scene.rest_positions();
         let inv_mass = scene.inv_mass.as_slice();
-        let particles = rest_x.len().min(inv_mass.len());
-
-        let mut targets: Vec<usize> = Vec::new();
-        for &t in scene.targets.as_slice() {
-            let object = objects.get(t as usize).ok_or_else(|| {
-                PluginError::failed(format!(
-                    "target {t} is not an object of the scene ({} objects)",
-                    objects.len()
-                ))
-            })?;
-            let end = object.first as usize + object.count as usize;
-            if end > particles {
-                return Err(PluginError::bad_object(
-                    object.name.as_str(),
-                    format!(
-                        "its particles {}..{end} are outside the scene's {particles}",
-                        object.first
-                    ),
-                ));
-            }
-            if !targets.contains(&(t as usize)) {
-                targets.push(t as usize);
-            }
-        }
 
         // (name, global particle indices, compliance, spin) of each body.
         let mut selections: Vec<(String, Vec<u32>, f64, DVec3)> = Vec::new();
         let default_spin = DVec3::from_array(params.initial_angular_velocity);
         if params.groups.is_empty() {
-            for &t in &targets {
-                let o = &objects[t];
+            for &(_, o) in &targets {
                 selections.push((
                     o.name.to_string(),
                     o.particles().map(|i| i as u32).collect(),
@@ -263,13 +235,10 @@ impl RigidGroup {
                         format!("entry {k} (object `{}`): {m}", g.object),
                     )
                 };
-                let Some(&t) = targets
-                    .iter()
-                    .find(|&&t| objects[t].name.as_str() == g.object)
+                let Some(&(_, o)) = targets.iter().find(|(_, o)| o.name.as_str() == g.object)
                 else {
                     return Err(bad("not one of this constraint's objects".into()));
                 };
-                let o = &objects[t];
                 let range = o.particles();
                 let mut ids: Vec<u32> = match (&g.indices, &g.region) {
                     (Some(list), _) => list
@@ -416,16 +385,6 @@ impl RigidGroup {
         }
     }
 
-    /// Refuses particle slices too short for the group's indices.
-    fn check_particles(&self, len: usize) -> Result<(), PluginError> {
-        match self.max_index {
-            Some(m) if m as usize >= len => Err(PluginError::failed(format!(
-                "the group refers to particle {m} but the state has {len} particles"
-            ))),
-            _ => Ok(()),
-        }
-    }
-
     fn is_movable(b: &Body) -> bool {
         b.end - b.start > b.pinned
     }
@@ -456,8 +415,8 @@ impl ConstraintGroup for RigidGroup {
         if ctx.frame != 0 || ctx.substep != 0 {
             return Ok(());
         }
+        ctx.check_holds(self.max_index)?;
         let p = ctx.particles();
-        self.check_particles(p.x.len().min(p.v.len()).min(p.inv_mass.len()))?;
         for b in &self.bodies {
             if b.spin == DVec3::ZERO || !Self::is_movable(b) {
                 continue;
@@ -482,8 +441,8 @@ impl ConstraintGroup for RigidGroup {
     /// The velocities of every fully rigid body (compliance 0) projected onto rigid motion,
     /// keeping its linear and angular momentum ([`rigidify_velocities`]).
     fn end_substep(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
+        ctx.check_holds(self.max_index)?;
         let p = ctx.particles();
-        self.check_particles(p.x.len().min(p.v.len()).min(p.inv_mass.len()))?;
         for b in &self.bodies {
             if b.alpha == 0.0 && Self::is_movable(b) {
                 rigidify_velocities(&self.body_ref(b), p.x, p.v, p.inv_mass);
@@ -495,14 +454,9 @@ impl ConstraintGroup for RigidGroup {
     /// One shape-matching pass over every body in order: fit its frame, move its free
     /// particles toward their goals. Deterministic, no allocation.
     fn project(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
-        let h = ctx.h;
-        if !h.is_finite() || h <= 0.0 {
-            return Err(PluginError::failed(format!(
-                "the substep length must be positive, got {h}"
-            )));
-        }
+        let h = ctx.substep_length()?;
+        ctx.check_holds(self.max_index)?;
         let p = ctx.particles();
-        self.check_particles(p.x.len().min(p.inv_mass.len()))?;
         let Self {
             bodies,
             ids,
@@ -542,7 +496,7 @@ impl ConstraintGroup for RigidGroup {
     fn residual(&self, ctx: &SolveContext<'_>) -> Residual {
         let x = ctx.positions();
         let mut out = Residual::default();
-        if self.check_particles(x.len()).is_err() {
+        if ctx.check_holds(self.max_index).is_err() {
             return out;
         }
         let mut sum_sq = 0.0;
@@ -574,7 +528,7 @@ impl ConstraintGroup for RigidGroup {
     /// its angular momentum about `c`, `L = Σ mᵢ (xᵢ − c) × vᵢ` (kg·m²/s), free particles only.
     fn report(&self, ctx: &SolveContext<'_>, out: &mut Vec<(String, f64)>) {
         let (x, v) = (ctx.positions(), ctx.velocities());
-        if self.check_particles(x.len().min(v.len())).is_err() {
+        if ctx.check_holds(self.max_index).is_err() {
             return;
         }
         for b in &self.bodies {

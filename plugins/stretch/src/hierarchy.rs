@@ -296,19 +296,8 @@ impl HierarchyGroup {
             max_index: None,
             count: 0,
         };
-        let mut seen = Vec::new();
-        for object in scene.targets() {
-            if seen.contains(&object.first) {
-                continue;
-            }
-            seen.push(object.first);
+        for (_, object) in scene.unique_targets()? {
             let range = object.particles();
-            if range.end > particles {
-                return Err(PluginError::bad_object(
-                    object.name.as_str(),
-                    "the object's particles are outside the scene",
-                ));
-            }
             let first = object.first;
             let mut graph: Graph = vec![Vec::new(); range.len()];
             for &[i, j] in object.edges.as_slice() {
@@ -434,16 +423,9 @@ impl ConstraintGroup for HierarchyGroup {
     /// moves the particles dropped below it by the weighted displacement of their parents
     /// since the start of the pass. No allocation.
     fn project(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
+        ctx.check_holds(self.max_index)?;
         let p = ctx.particles();
         let x = p.x;
-        if let Some(m) = self.max_index {
-            if m as usize >= x.len() {
-                return Err(PluginError::failed(format!(
-                    "the group refers to particle {m} but the state has {} particles",
-                    x.len()
-                )));
-            }
-        }
         for (s, &i) in self.start.iter_mut().zip(&self.tracked) {
             *s = x[i as usize];
         }

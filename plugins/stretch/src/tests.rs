@@ -2,7 +2,7 @@
 //! `nucleus_plugin().create_group` from JSON parameters and a hand-built scene view, and
 //! called through the ABI trait object.
 
-use nucleus_sdk::abi_stable::std_types::{RSlice, RStr};
+use nucleus_sdk::abi_stable::std_types::RSlice;
 use nucleus_sdk::prelude::*;
 use nucleus_sdk::GroupBox;
 
@@ -68,20 +68,9 @@ impl Mesh {
 
     fn object(&self) -> ObjectView<'_> {
         ObjectView {
-            name: RStr::from_str("cloth"),
-            first: 0,
-            count: self.rest.len() as u32,
-            points: RSlice::EMPTY,
             edges: RSlice::from_slice(&self.edges),
-            edge_triangle_count: RSlice::EMPTY,
             triangles: RSlice::from_slice(&self.triangles),
-            triangle_tet_count: RSlice::from_slice(&[]),
-            tets: RSlice::EMPTY,
-            triangle_pairs: RSlice::EMPTY,
-            edge_pairs: RSlice::EMPTY,
-            boundary_edges: RSlice::EMPTY,
-            closed: 0,
-            manifold: 1,
+            ..ObjectView::new("cloth", 0, self.rest.len() as u32)
         }
     }
 
@@ -89,14 +78,10 @@ impl Mesh {
     fn with_scene<R>(&self, targets: &[u32], f: impl FnOnce(&SceneView<'_>) -> R) -> R {
         let objects = [self.object()];
         let scene = SceneView {
-            objects: RSlice::from_slice(&objects),
-            targets: RSlice::from_slice(targets),
-            rest: RSlice::from_slice(&self.rest),
-            inv_mass: RSlice::from_slice(&self.inv_mass),
-            attributes: RSlice::EMPTY,
             gravity: [0.0, 0.0, -9.81],
             frame_dt: 1.0 / 24.0,
             substeps: 10,
+            ..SceneView::new(&objects, targets, &self.rest, &self.inv_mass)
         };
         f(&scene)
     }

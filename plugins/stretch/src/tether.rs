@@ -175,19 +175,8 @@ impl TetherGroup {
             compliance: p.compliance,
             max_index: None,
         };
-        let mut seen = Vec::new();
-        for object in scene.targets() {
-            if seen.contains(&object.first) {
-                continue;
-            }
-            seen.push(object.first);
+        for (_, object) in scene.unique_targets()? {
             let range = object.particles();
-            if range.end > rest.len() || range.end > w.len() {
-                return Err(PluginError::bad_object(
-                    object.name.as_str(),
-                    "the object's particles are outside the scene",
-                ));
-            }
             let first = object.first;
             let mut adjacency = vec![Vec::new(); range.len()];
             for &[i, j] in object.edges.as_slice() {
@@ -254,16 +243,10 @@ impl ConstraintGroup for TetherGroup {
     /// team (`ctx.team`, see [`nucleus_sdk::team`]): each particle's tethers run in the same
     /// order on one thread, so the result is bit-identical whatever the thread count.
     fn project(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
-        let (h, team) = (ctx.h, ctx.team);
+        let (h, team) = (ctx.substep_length()?, ctx.team);
+        ctx.check_holds(self.max_index)?;
         let p = ctx.particles();
-        let (w, len) = (p.inv_mass, p.x.len().min(p.inv_mass.len()));
-        if let Some(max) = self.max_index {
-            if max as usize >= len {
-                return Err(PluginError::failed(
-                    "tether refers to a particle outside the state",
-                ));
-            }
-        }
+        let w = p.inv_mass;
         let x = SharedArray::new(p.x);
         let lambda = SharedArray::new(&mut self.lambda);
         let (particle, pin, length) = (&self.particle[..], &self.pin[..], &self.length[..]);
