@@ -8,7 +8,7 @@ use nucleus_sdk::prelude::*;
 use crate::bvh::{Aabb, Bvh, HashGrid};
 use crate::contact::{Contact, PairKind};
 use crate::distance;
-use crate::pairs::{self, Track};
+use crate::pairs::{self, Separation, Track};
 use crate::params::{CollisionParams, ObjectSettings};
 use crate::shapes::{first_contact, Collider, Pose};
 
@@ -141,6 +141,19 @@ pub struct CollisionGroup {
     reach: Vec<f64>,
     /// Contact of each candidate (`NONE` if none).
     contact_of: Vec<u32>,
+    /// The particles of each candidate (unused slots repeat one of them).
+    cand_ids: Vec<[u32; 4]>,
+    /// The separation of each candidate, taken the first time a pass tests it
+    /// ([`Separation::UNKNOWN`] before that, and always for the kinds without a prefilter:
+    /// colliders, features, particle pairs), and the most any of its particles had then moved
+    /// from `x_ref`.
+    separation: Vec<Separation>,
+    separation_moved: Vec<f64>,
+    /// The end positions the last broad phase saw, and how far each particle has moved from
+    /// them since (m), kept current through a pass: a pair certainly apart at `x_ref` that has
+    /// not moved enough to close the gap is skipped ([`Separation::certainly_apart`]).
+    x_ref: Vec<DVec3>,
+    moved: Vec<f64>,
     /// Contacts of the substep.
     contacts: Vec<Contact>,
     /// Positions after prediction, before the solve.
@@ -232,6 +245,11 @@ impl CollisionGroup {
             candidates: Vec::new(),
             reach: Vec::new(),
             contact_of: Vec::new(),
+            cand_ids: Vec::new(),
+            separation: Vec::new(),
+            separation_moved: Vec::new(),
+            x_ref: vec![DVec3::ZERO; n],
+            moved: vec![0.0; n],
             contacts: Vec::new(),
             x_pred: vec![DVec3::ZERO; n],
             v_pre: vec![DVec3::ZERO; n],
@@ -834,6 +852,21 @@ impl CollisionGroup {
         self.stack = stack;
         self.stats.candidates = self.stats.candidates.max(self.candidates.len());
 
+        // The reference for the passes' skip test: no separation known yet.
+        let n = self.x_ref.len();
+        self.x_ref.copy_from_slice(&x[..n]);
+        self.moved.fill(0.0);
+        self.cand_ids.clear();
+        for k in 0..self.candidates.len() {
+            let ids = self.candidate_ids(self.candidates[k]);
+            self.cand_ids.push(ids);
+        }
+        self.separation.clear();
+        self.separation
+            .resize(self.candidates.len(), Separation::UNKNOWN);
+        self.separation_moved.clear();
+        self.separation_moved.resize(self.candidates.len(), 0.0);
+
         // Existing contacts keep their slot.
         self.contact_of.clear();
         self.contact_of.resize(self.candidates.len(), NONE);
@@ -886,6 +919,81 @@ impl CollisionGroup {
     // ------------------------------------------------------------------------------------
     // Narrow phase
     // ------------------------------------------------------------------------------------
+
+    /// The particles of a candidate of a kind with a prefilter (vertex–face, edge–edge,
+    /// vertex–edge), in the slots its test uses; zeros for the other kinds.
+    fn candidate_ids(&self, cand: Candidate) -> [u32; 4] {
+        let [a, b] = cand.pair;
+        let (a, b) = (a as usize, b as usize);
+        match cand.kind {
+            PairKind::VertexFace => {
+                let (p, t) = (self.verts[a], self.faces[b]);
+                [p, t[0], t[1], t[2]]
+            }
+            PairKind::EdgeEdge => {
+                let (e, f) = (self.edges[a], self.edges[b]);
+                [e[0], e[1], f[0], f[1]]
+            }
+            PairKind::VertexEdge => {
+                let (p, f) = (self.verts[a], self.edges[b]);
+                [p, p, f[0], f[1]]
+            }
+            _ => [0; 4],
+        }
+    }
+
+    /// The most any particle of candidate `k` has moved from `x_ref`.
+    #[inline]
+    fn candidate_moved(&self, k: usize) -> f64 {
+        self.cand_ids[k]
+            .iter()
+            .fold(0.0f64, |m, &i| m.max(self.moved[i as usize]))
+    }
+
+    /// Whether candidate `k` is certainly apart at contact distance `d` now. Its separation
+    /// was taken when its particles had moved at most `m0` from `x_ref`, and they have moved
+    /// at most `m1` from it now, so at most `m0 + m1` since.
+    #[inline]
+    fn skip(&self, k: usize, d: f64) -> bool {
+        let s = &self.separation[k];
+        !s.d0.is_nan() && s.certainly_apart(self.separation_moved[k] + self.candidate_moved(k), d)
+    }
+
+    /// Takes candidate `k`'s separation over `[x0, x]` (for the kinds with a prefilter) the
+    /// first time a pass tests it, and says whether the pair is apart at distance `d` by it:
+    /// the same verdict as its test's own prefilter, which then need not run.
+    fn take_separation(&mut self, k: usize, d: f64, x0: &[DVec3], x: &[DVec3]) -> bool {
+        let cand = self.candidates[k];
+        let ids = self.cand_ids[k];
+        let tr = ids.map(|i| Track {
+            x0: x0[i as usize],
+            x1: x[i as usize],
+        });
+        let s = match cand.kind {
+            PairKind::VertexFace => pairs::vertex_face_separation(&tr),
+            PairKind::EdgeEdge => pairs::edge_edge_separation(&tr),
+            PairKind::VertexEdge => pairs::vertex_edge_separation(&tr),
+            _ => return false,
+        };
+        self.separation[k] = s;
+        self.separation_moved[k] = self.candidate_moved(k);
+        s.certainly_apart(0.0, d)
+    }
+
+    /// `moved` for every particle, from the current positions.
+    fn update_moved(&mut self, x: &[DVec3]) {
+        for ((m, &r), &p) in self.moved.iter_mut().zip(&self.x_ref).zip(x) {
+            *m = (p - r).length();
+        }
+    }
+
+    /// `moved` for the particles of one contact just projected.
+    fn update_moved_of(&mut self, ids: &[u32; 4], x: &[DVec3]) {
+        for &i in ids {
+            let i = i as usize;
+            self.moved[i] = (x[i] - self.x_ref[i]).length();
+        }
+    }
 
     /// The contact of a candidate if the pair comes within `thickness_scale × reach` (its
     /// contact distance) over `[x0, x]` (`thickness_scale = 0`: the pair crosses; for a
@@ -1031,14 +1139,20 @@ impl CollisionGroup {
         for c in &mut self.contacts {
             c.project(x, inv_mass);
         }
+        self.update_moved(x);
         for k in 0..self.candidates.len() {
             let cand = self.candidates[k];
-            if !self.boxes_overlap(cand, x0, x) {
+            let d = self.reach[k];
+            if self.skip(k, d) || !self.boxes_overlap(cand, x0, x) {
                 continue;
             }
-            let Some(mut contact) = self.detect(cand, self.reach[k], x0, x, 1.0) else {
+            if self.separation[k].d0.is_nan() && self.take_separation(k, d, x0, x) {
+                continue;
+            }
+            let Some(mut contact) = self.detect(cand, d, x0, x, 1.0) else {
                 continue;
             };
+            let ids = contact.ids;
             let slot = self.contact_of[k];
             if slot == NONE {
                 self.contact_of[k] = self.contacts.len() as u32;
@@ -1050,6 +1164,7 @@ impl CollisionGroup {
                 contact.project(x, inv_mass);
                 *old = contact;
             }
+            self.update_moved_of(&ids, x);
         }
     }
 
@@ -1195,9 +1310,13 @@ impl CollisionGroup {
             }
             let mut crossing = 0;
             let mut froze = false;
+            self.update_moved(x);
             for k in 0..self.candidates.len() {
                 let cand = self.candidates[k];
-                if cand.kind == PairKind::Collider || !self.boxes_overlap(cand, x0, x) {
+                if cand.kind == PairKind::Collider
+                    || self.skip(k, 0.0)
+                    || !self.boxes_overlap(cand, x0, x)
+                {
                     continue;
                 }
                 let Some(c) = self.detect(cand, self.reach[k], x0, x, 0.0) else {
@@ -1228,6 +1347,7 @@ impl CollisionGroup {
                         self.carrier[i] = carrier;
                         self.frozen_list.push(i as u32);
                         x[i] = self.carried(carrier, i, x0, x);
+                        self.moved[i] = (x[i] - self.x_ref[i]).length();
                         froze = true;
                         self.stats.frozen += 1;
                     }
