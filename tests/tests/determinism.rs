@@ -191,3 +191,57 @@ objects = ["cloth"]
     let last = std::fs::read(a.join("frame_0004.obj")).unwrap();
     assert!(first != last, "the cloth must have moved");
 }
+
+#[test]
+fn a_cloth_colliding_with_itself_and_a_sphere_gives_the_same_bits_on_one_and_two_threads() {
+    // 32 × 32 (1,024 vertices, 2,945 edges): the broad phase's vertex–face and edge–edge
+    // queries are split over the team; the cloth reaches the sphere and folds over it.
+    let dir = temp_dir("collision-threads-scene");
+    let scene = dir.join("cloth_on_sphere.toml");
+    std::fs::write(
+        &scene,
+        r#"
+[solver]
+frames = 24
+substeps = 5
+[[objects]]
+name = "cloth"
+mass = 0.3
+[objects.grid]
+size = [1.0, 1.0]
+resolution = [32, 32]
+plane = "xz"
+origin = [-0.5, 0.35, -0.5]
+[[constraints]]
+kind = "stretch"
+params = { compression_compliance = 1e-3 }
+[[constraints]]
+kind = "collision"
+params = { thickness = 0.01, friction_static = 0.3, friction_dynamic = 0.2, colliders = [
+  { type = "sphere", center = [0.0, 0.0, 0.0], radius = 0.3 },
+] }
+"#,
+    )
+    .unwrap();
+    let scene = scene.to_str().unwrap();
+    let a = run_with("collision-threads-1", scene, "1", &[]);
+    let b = run_with("collision-threads-2", scene, "2", &[]);
+    assert_same_frames(&a, &b, 24, "1 and 2 threads");
+    assert_eq!(stats_without_wall(&a), stats_without_wall(&b));
+    // Meaningful only if the cloth met the sphere and itself: contacts in the last frames.
+    let stats = stats_without_wall(&a);
+    let header: Vec<&str> = stats[0].split(',').collect();
+    let col = header
+        .iter()
+        .position(|c| *c == "collision.contacts")
+        .unwrap();
+    let last: f64 = stats
+        .last()
+        .unwrap()
+        .split(',')
+        .nth(col)
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(last > 100.0, "only {last} contacts in the last frame");
+}
