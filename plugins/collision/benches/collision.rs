@@ -7,6 +7,8 @@
 //! [`DEFAULT_FRAMES`], or `NUCLEUS_HEAP_FRAMES` — and that state is saved. Every iteration
 //! restores it and times one substep from it (the restore is outside the timing):
 //!
+//! The group's stages get the host's thread team (`RAYON_NUM_THREADS`), as in a run.
+//!
 //! * `heap/broad_phase`: the collision group's `begin_substep` alone — refit of the two
 //!   bounding-volume trees over the swept primitives and collection of the candidate pairs;
 //! * `heap/collision_group`: the group's whole substep — `begin_substep`, its passes of
@@ -31,6 +33,7 @@ use nucleus_core::world::Particles;
 use nucleus_core::{Registry, Scene, Simulation};
 use nucleus_sdk::abi_stable::std_types::RResult;
 use nucleus_sdk::prelude::*;
+use nucleus_sdk::TeamRef;
 
 /// The scene, relative to this crate.
 const SCENE: &str = "../../scenes/cloth_heap.toml";
@@ -136,6 +139,15 @@ impl Heap {
                 h,
             )
         };
+        // The host's thread team, as the core lends it (`RAYON_NUM_THREADS`).
+        let guard = match self.sim.threads {
+            t if t > 1 => nucleus_sdk::team::shared(t),
+            _ => None,
+        };
+        ctx.team = guard
+            .as_ref()
+            .and_then(|g| g.as_ref())
+            .map_or(TeamRef::serial(), TeamRef::new);
         let group = &mut self.sim.groups[self.collision].group;
         let ok = |r: RResult<(), PluginError>| {
             if let RResult::RErr(e) = r {

@@ -74,12 +74,19 @@
 //! particles has moved since, still proves it apart ([`pairs::Separation::certainly_apart`]) —
 //! the verdict the full test would give, so the contacts and positions are the same bits.
 //!
-//! Measured (2026-11-23, the 2-core VM, 25–40 frames, ms per frame; "before" is commit
-//! 7d55671): `cloth_on_sphere` 765 → 686 on one thread with the skip alone (same bits), 542 on
-//! two threads with the split and the wider margin; `soccer_net` 75.6 → 55.3 (skip) → 39.3
-//! (two threads); `cloth_heap`, whose pairs are mostly in contact, 1,194 → 1,231 (skip, noise)
-//! → 883 (two threads, margin). Commands: `RAYON_NUM_THREADS=T target/release/nucleus run
-//! scenes/SCENE.toml --frames 40`.
+//! Measured back to back (2026-11-23, the 2-core VM, the first 40 frames, mean ms per frame,
+//! before = commit 7d55671, after = the skip, the split and the `0.3 r` margin):
+//!
+//! | scene | 1 thread before → after | 2 threads before → after |
+//! |---|---:|---:|
+//! | `soccer_net` | 104.8 → 86.2 | 106.0 → **65.5** |
+//! | `cloth_on_sphere` | 967 → 636 | 998 → **573** |
+//! | `cloth_heap` (mostly pairs in contact) | 1,319 → 1,154 | 1,340 → **924** |
+//! | `collision_sweep` | 10.0 → 9.2 | 11.9 → 10.5 |
+//!
+//! The skip alone gives the same bits (every OBJ frame of the first three scenes compared);
+//! the margin changes when the broad phase reruns, and with it the order of the contacts.
+//! Command: `RAYON_NUM_THREADS=T target/release/nucleus run scenes/SCENE.toml --frames 40`.
 //!
 //! ## Narrow phase ([`ccd`], [`distance`])
 //!
