@@ -70,6 +70,7 @@ pub mod abi;
 pub mod group;
 pub mod params;
 pub mod team;
+pub mod testing;
 pub mod view;
 pub mod xpbd;
 

@@ -98,7 +98,7 @@ pub fn project_edge_angle(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testutil::{assert_conserves_momentum, Rng};
+    use crate::testutil::{assert_conserves_momentum, Draws, Rng};
     use std::f64::consts::PI;
 
     const H: f64 = 1.0 / 600.0;

@@ -143,7 +143,7 @@ pub fn project_isometric(
 mod tests {
     use super::*;
     use crate::dihedral::dihedral_angle;
-    use crate::testutil::{assert_conserves_momentum, Rng};
+    use crate::testutil::{assert_conserves_momentum, Draws, Rng};
     use std::f64::consts::PI;
 
     const H: f64 = 1.0 / 600.0;

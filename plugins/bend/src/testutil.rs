@@ -2,52 +2,24 @@
 
 use glam::DVec3;
 
-/// xorshift64*: deterministic, so the tests need no `rand`.
-pub struct Rng(pub u64);
+pub use nucleus_sdk::testing::Rng;
 
-impl Rng {
-    pub fn next_f64(&mut self) -> f64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        let bits = self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11;
-        bits as f64 / (1u64 << 53) as f64
-    }
-
-    /// Uniform in `[lo, hi)`.
-    pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.next_f64()
-    }
-
-    /// Uniform in the cube of half-side `half`.
-    pub fn vec3(&mut self, half: f64) -> DVec3 {
-        DVec3::new(
-            self.range(-half, half),
-            self.range(-half, half),
-            self.range(-half, half),
-        )
-    }
-
-    /// A random unit vector.
-    pub fn unit(&mut self) -> DVec3 {
-        loop {
-            let v = self.vec3(1.0);
-            let l = v.length();
-            if l > 0.1 && l <= 1.0 {
-                return v / l;
-            }
-        }
-    }
-
+/// The draws the bending tests need beyond the SDK's generator.
+pub trait Draws {
     /// A random orthonormal pair.
-    pub fn frame(&mut self) -> (DVec3, DVec3) {
+    fn frame(&mut self) -> (DVec3, DVec3);
+    /// An inverse mass for masses from 1 g to 1 t (ratios up to 1e6).
+    fn inv_mass(&mut self) -> f64;
+}
+
+impl Draws for Rng {
+    fn frame(&mut self) -> (DVec3, DVec3) {
         let u = self.unit();
         let v = u.cross(self.unit()).normalize();
         (u, v)
     }
 
-    /// An inverse mass for masses from 1 g to 1 t (ratios up to 1e6).
-    pub fn inv_mass(&mut self) -> f64 {
+    fn inv_mass(&mut self) -> f64 {
         10f64.powf(self.range(-3.0, 3.0))
     }
 }

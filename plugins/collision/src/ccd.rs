@@ -1452,7 +1452,7 @@ mod tests {
         let mut rng = Rng(99);
         for g in [1e-4, 1e-9] {
             for case in 0..60 {
-                let axis = rng.vec(1.0).normalize();
+                let axis = rng.vec3(1.0).normalize();
                 let (e1, e2) = axis.any_orthonormal_pair();
                 let m = |p: DVec3| p.x * e1 + p.y * e2 + p.z * axis + v(0.3, -0.2, 0.7);
                 let tri = [
@@ -1460,8 +1460,8 @@ mod tests {
                     m(v(1.0, 0.0, 0.0)),
                     m(v(0.0, 1.0, 0.0)),
                 ];
-                let (s, tc) = (rng.next(), rng.next());
-                let vel = v(rng.next() - 0.5, -0.5 * rng.next(), 1.0);
+                let (s, tc) = (rng.next_f64(), rng.next_f64());
+                let vel = v(rng.next_f64() - 0.5, -0.5 * rng.next_f64(), 1.0);
                 let cross = v(s, -g, 0.0);
                 let (p0, p1) = (m(cross - tc * vel), m(cross + (1.0 - tc) * vel));
                 let r = point_triangle_ccd(
@@ -1484,28 +1484,7 @@ mod tests {
         }
     }
 
-    /// xorshift64*: deterministic, dependency-free.
-    struct Rng(u64);
-    impl Rng {
-        fn next(&mut self) -> f64 {
-            self.0 ^= self.0 >> 12;
-            self.0 ^= self.0 << 25;
-            self.0 ^= self.0 >> 27;
-            (self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11) as f64 / (1u64 << 53) as f64
-        }
-        fn int(&mut self, n: i64) -> f64 {
-            ((self.next() * (2 * n + 1) as f64) as i64 - n) as f64
-        }
-        fn ivec(&mut self, n: i64) -> DVec3 {
-            DVec3::new(self.int(n), self.int(n), self.int(n))
-        }
-        fn vec(&mut self, r: f64) -> DVec3 {
-            DVec3::new(self.next() - 0.5, self.next() - 0.5, self.next() - 0.5) * (2.0 * r)
-        }
-        fn pick(&mut self, n: usize) -> usize {
-            (self.next() * n as f64) as usize
-        }
-    }
+    use nucleus_sdk::testing::Rng;
 
     /// Random linear motions with a contact built in exactly: at a dyadic time `t*` the
     /// positions are small integers and the contact point a dyadic combination of them, so
@@ -1600,10 +1579,14 @@ mod tests {
         let (mut contacts, mut reported) = (0, 0);
         for case in 0..1500 {
             let point_triangle = case % 2 == 0;
-            let d = if case % 3 == 0 { 0.0 } else { 0.3 * rng.next() };
+            let d = if case % 3 == 0 {
+                0.0
+            } else {
+                0.3 * rng.next_f64()
+            };
             // Start around the origin, end around the origin too, so paths cross.
-            let start = [rng.vec(1.0), rng.vec(1.0), rng.vec(1.0), rng.vec(1.0)];
-            let end = [rng.vec(1.0), rng.vec(1.0), rng.vec(1.0), rng.vec(1.0)];
+            let start = [rng.vec3(1.0), rng.vec3(1.0), rng.vec3(1.0), rng.vec3(1.0)];
+            let end = [rng.vec3(1.0), rng.vec3(1.0), rng.vec3(1.0), rng.vec3(1.0)];
             let (r, dist): (CcdResult, fn([DVec3; 4]) -> f64) = if point_triangle {
                 (
                     point_triangle_ccd(start, end, d, &CcdOptions::default()),

@@ -483,25 +483,7 @@ pub mod exact {
 mod tests {
     use super::*;
 
-    /// A small deterministic generator (xorshift64*), so tests need no dependency.
-    struct Rng(u64);
-    impl Rng {
-        fn next(&mut self) -> f64 {
-            self.0 ^= self.0 >> 12;
-            self.0 ^= self.0 << 25;
-            self.0 ^= self.0 >> 27;
-            (self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11) as f64 / (1u64 << 53) as f64
-        }
-        fn range(&mut self, lo: f64, hi: f64) -> f64 {
-            lo + (hi - lo) * self.next()
-        }
-        fn vec(&mut self, r: f64) -> DVec3 {
-            DVec3::new(self.range(-r, r), self.range(-r, r), self.range(-r, r))
-        }
-        fn int(&mut self, n: i64) -> i64 {
-            (self.next() * (2 * n + 1) as f64) as i64 - n
-        }
-    }
+    use nucleus_sdk::testing::Rng;
 
     const A: DVec3 = DVec3::new(0.0, 0.0, 0.0);
     const B: DVec3 = DVec3::new(1.0, 0.0, 0.0);
@@ -566,8 +548,8 @@ mod tests {
     fn point_triangle_closest_is_never_beaten_by_sampling() {
         let mut rng = Rng(7);
         for _ in 0..200 {
-            let (a, b, c) = (rng.vec(1.0), rng.vec(1.0), rng.vec(1.0));
-            let p = rng.vec(1.5);
+            let (a, b, c) = (rng.vec3(1.0), rng.vec3(1.0), rng.vec3(1.0));
+            let p = rng.vec3(1.5);
             let (bary, d2) = point_triangle_closest(p, a, b, c);
             let q = bary[0] * a + bary[1] * b + bary[2] * c;
             assert!(close((q - p).length_squared(), d2));
@@ -625,12 +607,12 @@ mod tests {
     fn segment_segment_closest_is_never_beaten_by_sampling() {
         let mut rng = Rng(11);
         for k in 0..300 {
-            let (a, b, c) = (rng.vec(1.0), rng.vec(1.0), rng.vec(1.0));
+            let (a, b, c) = (rng.vec3(1.0), rng.vec3(1.0), rng.vec3(1.0));
             // Every third pair is exactly parallel, every fifth has a zero-length edge.
             let d = match k % 15 {
                 0 | 3 | 6 | 9 | 12 => c + 0.7 * (b - a),
                 5 | 10 => c,
-                _ => rng.vec(1.0),
+                _ => rng.vec3(1.0),
             };
             let (s, t, d2) = segment_segment_closest(a, b, c, d);
             assert!((0.0..=1.0).contains(&s) && (0.0..=1.0).contains(&t));
@@ -798,8 +780,8 @@ mod tests {
         let mut rng = Rng(5);
         let mut hits = 0;
         for _ in 0..300 {
-            let t1 = [rng.vec(1.0), rng.vec(1.0), rng.vec(1.0)];
-            let t2 = [rng.vec(1.0), rng.vec(1.0), rng.vec(1.0)];
+            let t1 = [rng.vec3(1.0), rng.vec3(1.0), rng.vec3(1.0)];
+            let t2 = [rng.vec3(1.0), rng.vec3(1.0), rng.vec3(1.0)];
             // Minimum distance between the triangles: over edges of one against the other.
             let mut dmin = f64::INFINITY;
             for (s, o) in [(t1, t2), (t2, t1)] {

@@ -382,30 +382,7 @@ pub fn point_point_toi(p0: DVec3, q0: DVec3, p1: DVec3, q1: DVec3, d: f64) -> Op
 mod tests {
     use super::*;
 
-    /// A tiny deterministic generator (xorshift64*): uniform in `[-1, 1)`.
-    struct Rng(u64);
-
-    impl Rng {
-        fn unit(&mut self) -> f64 {
-            self.0 ^= self.0 >> 12;
-            self.0 ^= self.0 << 25;
-            self.0 ^= self.0 >> 27;
-            let bits = self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11;
-            2.0 * (bits as f64 / (1u64 << 53) as f64) - 1.0
-        }
-        fn vec(&mut self, half: f64) -> DVec3 {
-            DVec3::new(self.unit(), self.unit(), self.unit()) * half
-        }
-        /// A point in the ball of radius `r`.
-        fn within(&mut self, r: f64) -> DVec3 {
-            loop {
-                let v = DVec3::new(self.unit(), self.unit(), self.unit());
-                if v.length_squared() <= 1.0 {
-                    return v * r;
-                }
-            }
-        }
-    }
+    use nucleus_sdk::testing::Rng;
 
     type Test = fn([u32; 2], [u32; 4], &[Track; 4], f64) -> Option<Contact>;
     type Sep = fn(&[Track; 4]) -> Separation;
@@ -424,9 +401,9 @@ mod tests {
         for (name, test, separation) in kinds {
             let (mut skipped, mut tried) = (0, 0);
             for _ in 0..20_000 {
-                let d = 0.01 * (1.0 + rng.unit());
-                let start: [DVec3; 4] = std::array::from_fn(|_| rng.vec(0.05));
-                let end: [DVec3; 4] = std::array::from_fn(|k| start[k] + rng.vec(0.01));
+                let d = 0.01 * (1.0 + rng.range(-1.0, 1.0));
+                let start: [DVec3; 4] = std::array::from_fn(|_| rng.vec3(0.05));
+                let end: [DVec3; 4] = std::array::from_fn(|k| start[k] + rng.vec3(0.01));
                 let tracks = |e: &[DVec3; 4]| -> [Track; 4] {
                     std::array::from_fn(|k| Track {
                         x0: start[k],
@@ -434,13 +411,13 @@ mod tests {
                     })
                 };
                 let s = separation(&tracks(&end));
-                let delta = 0.005 * (1.0 + rng.unit());
+                let delta = 0.005 * (1.0 + rng.range(-1.0, 1.0));
                 if !s.certainly_apart(delta, d) {
                     continue;
                 }
                 skipped += 1;
                 for _ in 0..4 {
-                    let moved: [DVec3; 4] = std::array::from_fn(|k| end[k] + rng.within(delta));
+                    let moved: [DVec3; 4] = std::array::from_fn(|k| end[k] + rng.in_ball(delta));
                     tried += 1;
                     assert!(
                         test([0, 1], [0, 1, 2, 3], &tracks(&moved), d).is_none(),

@@ -290,28 +290,7 @@ impl<'a> Surface<'a> {
 pub(crate) mod tests {
     use super::*;
 
-    /// A tiny deterministic generator (xorshift64*), so the tests need no `rand`.
-    pub(crate) struct Rng(pub u64);
-
-    impl Rng {
-        pub fn next_f64(&mut self) -> f64 {
-            self.0 ^= self.0 >> 12;
-            self.0 ^= self.0 << 25;
-            self.0 ^= self.0 >> 27;
-            let bits = self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11;
-            bits as f64 / (1u64 << 53) as f64
-        }
-        pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
-            lo + (hi - lo) * self.next_f64()
-        }
-        pub fn vec3(&mut self, half: f64) -> DVec3 {
-            DVec3::new(
-                self.range(-half, half),
-                self.range(-half, half),
-                self.range(-half, half),
-            )
-        }
-    }
+    pub(crate) use nucleus_sdk::testing::Rng;
 
     /// An owned surface for the tests.
     pub(crate) struct Mesh {

@@ -15,24 +15,7 @@ use glam::{DQuat, DVec3};
 use nucleus_sdk::prelude::*;
 use nucleus_sdk::GroupBox;
 
-/// xorshift64*: deterministic inputs without a dependency.
-struct Rng(u64);
-
-impl Rng {
-    fn next_f64(&mut self) -> f64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        (self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn vec3(&mut self, half: f64) -> DVec3 {
-        DVec3::new(
-            half * (2.0 * self.next_f64() - 1.0),
-            half * (2.0 * self.next_f64() - 1.0),
-            half * (2.0 * self.next_f64() - 1.0),
-        )
-    }
-}
+use nucleus_sdk::testing::Rng;
 
 struct Scene {
     rest: Vec<[f64; 3]>,

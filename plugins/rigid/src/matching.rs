@@ -660,40 +660,12 @@ pub fn goal_distances(
 mod tests {
     use super::*;
 
-    /// A tiny deterministic generator (xorshift64*), so the tests need no `rand`.
-    pub(crate) struct Rng(pub u64);
+    pub(crate) use nucleus_sdk::testing::Rng;
 
-    impl Rng {
-        pub fn next_f64(&mut self) -> f64 {
-            self.0 ^= self.0 >> 12;
-            self.0 ^= self.0 << 25;
-            self.0 ^= self.0 >> 27;
-            let bits = self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11;
-            bits as f64 / (1u64 << 53) as f64
-        }
-        pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
-            lo + (hi - lo) * self.next_f64()
-        }
-        pub fn vec3(&mut self, half: f64) -> DVec3 {
-            DVec3::new(
-                self.range(-half, half),
-                self.range(-half, half),
-                self.range(-half, half),
-            )
-        }
-        pub fn rotation(&mut self) -> DQuat {
-            loop {
-                let v = self.vec3(1.0);
-                let w = self.range(-1.0, 1.0);
-                let q = DQuat::from_xyzw(v.x, v.y, v.z, w);
-                if q.length() > 0.1 {
-                    return q.normalize();
-                }
-            }
-        }
-        pub fn matrix(&mut self) -> DMat3 {
-            DMat3::from_cols(self.vec3(1.0), self.vec3(1.0), self.vec3(1.0))
-        }
+    /// A random matrix (columns in the unit cube): the draw the fitting tests need beyond the
+    /// SDK's generator.
+    pub(crate) fn matrix(rng: &mut Rng) -> DMat3 {
+        DMat3::from_cols(rng.vec3(1.0), rng.vec3(1.0), rng.vec3(1.0))
     }
 
     fn fit_value(r: DQuat, a: &DMat3) -> f64 {
@@ -711,7 +683,7 @@ mod tests {
     fn horn_quadratic_form_is_the_fit_of_the_rotation() {
         let mut rng = Rng(7);
         for _ in 0..100 {
-            let b = rng.matrix();
+            let b = matrix(&mut rng);
             let q = rng.rotation();
             let n = horn_matrix(&b);
             let v = [q.w, q.x, q.y, q.z];
@@ -756,7 +728,7 @@ mod tests {
         let mut rng = Rng(3);
         for _ in 0..200 {
             let r0 = rng.rotation();
-            let g = rng.matrix();
+            let g = matrix(&mut rng);
             let s = g.transpose() * g + DMat3::IDENTITY * 0.1;
             let a = DMat3::from_quat(r0) * s;
             for hint in [DQuat::IDENTITY, rng.rotation(), r0] {
@@ -775,7 +747,7 @@ mod tests {
         let mut rng = Rng(5);
         let mut inverted = 0;
         for _ in 0..300 {
-            let a = rng.matrix();
+            let a = matrix(&mut rng);
             inverted += (a.determinant() < 0.0) as u32;
             let r = optimal_rotation(&a, rng.rotation());
             assert!(
@@ -797,7 +769,7 @@ mod tests {
         let mut rng = Rng(13);
         for _ in 0..300 {
             let r0 = rng.rotation();
-            let g = rng.matrix();
+            let g = matrix(&mut rng);
             let a = DMat3::from_quat(r0) * (g.transpose() * g + DMat3::IDENTITY * 0.05);
             // A hint within 0.05 rad, seen from which the answer is near (1, 0, 0, 0).
             let hint = DQuat::from_scaled_axis(rng.vec3(0.03)) * r0;
@@ -977,7 +949,7 @@ mod tests {
 
     /// The rest shape, deformed: a random affine map (possibly inverting) plus noise.
     fn deformed(rng: &mut Rng, rest: &[DVec3], mirror: bool) -> Vec<DVec3> {
-        let mut m = DMat3::from_quat(rng.rotation()) + rng.matrix() * 0.3;
+        let mut m = DMat3::from_quat(rng.rotation()) + matrix(rng) * 0.3;
         if mirror {
             m *= DMat3::from_diagonal(DVec3::new(-1.0, 1.0, 1.0));
         }
