@@ -129,3 +129,58 @@ fn stepping_a_cloth_split_over_the_thread_team_allocates_nothing() {
     });
     assert_eq!(n, 0, "{n} allocations in 3 frames of stepping on 2 threads");
 }
+
+#[test]
+fn a_colliding_cloth_resting_on_the_ground_on_two_threads_allocates_nothing() {
+    let _turn = turn();
+    // 24 × 24 (576 vertices, 1,633 edges, self-collision on): the collision broad phase
+    // splits its queries over the team, and the cloth, dropped flat 5 cm onto the ground,
+    // keeps hundreds of contacts with it.
+    let scene = r#"
+[solver]
+substeps = 4
+damping = 2.0
+[[objects]]
+name = "cloth"
+[objects.grid]
+size = [0.6, 0.6]
+resolution = [24, 24]
+plane = "xz"
+origin = [-0.3, 0.05, -0.3]
+[[constraints]]
+kind = "stretch"
+params = { compression_compliance = 1e-3 }
+[[constraints]]
+kind = "collision"
+params = { thickness = 0.01, friction_static = 0.5, friction_dynamic = 0.4, colliders = [
+  { type = "plane", point = [0.0, 0.0, 0.0], normal = [0.0, 1.0, 0.0] },
+] }
+"#;
+    let mut reg = registry();
+    reg.add_in_process(nucleus_collision::nucleus_plugin());
+    let mut sim = Simulation::from_toml(scene, &reg).unwrap();
+    sim.threads = 2;
+    // Until it rests: the candidate and contact lists reach their size.
+    for _ in 0..60 {
+        sim.step_frame().unwrap();
+    }
+    let n = allocations_while(|| {
+        for _ in 0..5 {
+            sim.step_frame().unwrap();
+        }
+    });
+    let contacts = sim
+        .reports()
+        .unwrap()
+        .into_iter()
+        .find(|(k, _)| k == "collision.contacts")
+        .map_or(0.0, |(_, v)| v);
+    assert!(
+        contacts > 100.0,
+        "only {contacts} contacts: the test means nothing"
+    );
+    assert_eq!(
+        n, 0,
+        "{n} allocations in 5 frames of a resting cloth on 2 threads"
+    );
+}
