@@ -222,7 +222,7 @@ impl AirGroup {
         let mut global_points = Vec::new();
         for (_, object) in scene.unique_targets()? {
             let name = object.name.as_str();
-            let range = object.first as usize..object.first as usize + object.count as usize;
+            let range = object.particles();
             let check = |ids: &[u32], what: &str| -> Result<(), PluginError> {
                 match ids
                     .iter()

@@ -221,7 +221,7 @@ fn check_ids<const N: usize>(
     particles: usize,
     what: &str,
 ) -> Result<(), PluginError> {
-    let range = object.first as usize..object.first as usize + object.count as usize;
+    let range = object.particles();
     for (a, &i) in ids.iter().enumerate() {
         if !range.contains(&(i as usize)) || i as usize >= particles {
             return Err(PluginError::bad_object(

@@ -195,6 +195,15 @@ type QueryFn<'q> = dyn Fn(&CollisionGroup, std::ops::Range<usize>, &mut Vec<u32>
     + Sync
     + 'q;
 
+/// Particle `i`'s track over the substep: from `x0` to `x`.
+#[inline]
+fn track(x0: &[DVec3], x: &[DVec3], i: u32) -> Track {
+    Track {
+        x0: x0[i as usize],
+        x1: x[i as usize],
+    }
+}
+
 /// Sorts the hits of one query (those from `from` on) by their second primitive.
 fn sort_by_second(pending: &mut [(Candidate, f64)], from: usize) {
     pending[from..].sort_unstable_by_key(|c| c.0.pair[1]);
@@ -747,6 +756,7 @@ impl CollisionGroup {
             self.split_queries(
                 self.verts.len(),
                 team,
+                &mut stack,
                 &mut pending,
                 &|this, r, stack, out| this.vertex_face_pairs(r, inv_mass, stack, out),
             );
@@ -754,6 +764,7 @@ impl CollisionGroup {
         self.split_queries(
             self.edges.len(),
             team,
+            &mut stack,
             &mut pending,
             &|this, r, stack, out| this.edge_edge_pairs(r, inv_mass, stack, out),
         );
@@ -836,22 +847,24 @@ impl CollisionGroup {
         }
     }
 
-    /// Runs `query` over `0..n` (vertices or edges), each part of the team on its own
-    /// contiguous range with its own stack and hit list, then appends the parts' hits to
-    /// `pending` in part order. Below [`PARALLEL_MIN_QUERIES`] queries, or on one thread, the
-    /// whole range runs here. The part buffers keep their capacity from step to step.
+    /// Runs `query` over `0..n` (vertices or edges), appending its hits to `pending`. Below
+    /// [`PARALLEL_MIN_QUERIES`] queries, or on one thread, the whole range runs here, straight
+    /// into `pending` with `stack`; else each part of the team takes its own contiguous range
+    /// with its own stack and hit list, and the parts' hits are appended in part order. The
+    /// part buffers keep their capacity from step to step.
     fn split_queries(
         &mut self,
         n: usize,
         team: TeamRef<'_>,
+        stack: &mut Vec<u32>,
         pending: &mut Vec<(Candidate, f64)>,
         query: &QueryFn<'_>,
     ) {
-        let parts = if n >= PARALLEL_MIN_QUERIES {
-            team.parts()
-        } else {
-            1
-        };
+        let parts = team.parts();
+        if n < PARALLEL_MIN_QUERIES || parts < 2 {
+            query(self, 0..n, stack, pending);
+            return;
+        }
         let mut outs = std::mem::take(&mut self.part_pending);
         let mut stacks = std::mem::take(&mut self.part_stacks);
         if outs.len() < parts {
@@ -872,11 +885,7 @@ impl CollisionGroup {
                 query(this, span(part, parts, n), &mut local, &mut hits);
                 (*out, *stack) = (hits, local);
             };
-            if parts > 1 {
-                team.run(&job);
-            } else {
-                job(0);
-            }
+            team.run(&job);
         }
         for out in &outs[..parts] {
             pending.extend_from_slice(out);
@@ -1067,25 +1076,14 @@ impl CollisionGroup {
         !s.d0.is_nan() && s.certainly_apart(self.separation_moved[k] + self.candidate_moved(k), d)
     }
 
-    /// Takes candidate `k`'s separation over `[x0, x]` (for the kinds with a prefilter) the
-    /// first time a pass tests it, and says whether the pair is apart at distance `d` by it:
-    /// the same verdict as its test's own prefilter, which then need not run.
-    fn take_separation(&mut self, k: usize, d: f64, x0: &[DVec3], x: &[DVec3]) -> bool {
-        let cand = self.candidates[k];
-        let ids = self.cand_ids[k];
-        let tr = ids.map(|i| Track {
-            x0: x0[i as usize],
-            x1: x[i as usize],
-        });
-        let s = match cand.kind {
-            PairKind::VertexFace => pairs::vertex_face_separation(&tr),
-            PairKind::EdgeEdge => pairs::edge_edge_separation(&tr),
-            PairKind::VertexEdge => pairs::vertex_edge_separation(&tr),
-            _ => return false,
-        };
+    /// Takes and keeps candidate `k`'s separation over `[x0, x]` (for the kinds with a
+    /// prefilter; `None` for the others), the first time a pass tests it.
+    fn take_separation(&mut self, k: usize, x0: &[DVec3], x: &[DVec3]) -> Option<Separation> {
+        let tr = self.cand_ids[k].map(|i| track(x0, x, i));
+        let s = pairs::separation(self.candidates[k].kind, &tr)?;
         self.separation[k] = s;
         self.separation_moved[k] = self.candidate_moved(k);
-        s.certainly_apart(0.0, d)
+        Some(s)
     }
 
     /// `moved` for every particle, from the current positions.
@@ -1105,7 +1103,9 @@ impl CollisionGroup {
 
     /// The contact of a candidate if the pair comes within `thickness_scale × reach` (its
     /// contact distance) over `[x0, x]` (`thickness_scale = 0`: the pair crosses; for a
-    /// collider's feature, it crosses the collider's core).
+    /// collider's feature, it crosses the collider's core). `known`: the pair's separation over
+    /// these very positions, if just taken ([`Self::take_separation`]), so it is not taken
+    /// twice.
     fn detect(
         &self,
         cand: Candidate,
@@ -1113,30 +1113,17 @@ impl CollisionGroup {
         x0: &[DVec3],
         x: &[DVec3],
         thickness_scale: f64,
+        known: Option<Separation>,
     ) -> Option<Contact> {
-        let track = |i: u32| Track {
-            x0: x0[i as usize],
-            x1: x[i as usize],
-        };
+        let track = |i: u32| track(x0, x, i);
         let d = thickness_scale * reach;
         let [a, b] = cand.pair;
         match cand.kind {
-            PairKind::VertexFace => {
-                let p = self.verts[a as usize];
-                let t = self.faces[b as usize];
-                let ids = [p, t[0], t[1], t[2]];
-                pairs::vertex_face(cand.pair, ids, &ids.map(track), d)
-            }
-            PairKind::EdgeEdge => {
-                let (e, f) = (self.edges[a as usize], self.edges[b as usize]);
-                let ids = [e[0], e[1], f[0], f[1]];
-                pairs::edge_edge(cand.pair, ids, &ids.map(track), d)
-            }
-            PairKind::VertexEdge => {
-                let p = self.verts[a as usize];
-                let f = self.edges[b as usize];
-                let ids = [p, p, f[0], f[1]];
-                pairs::vertex_edge(cand.pair, ids, &ids.map(track), d)
+            PairKind::VertexFace | PairKind::EdgeEdge | PairKind::VertexEdge => {
+                let ids = self.candidate_ids(cand);
+                let tr = ids.map(track);
+                let s = known.or_else(|| pairs::separation(cand.kind, &tr))?;
+                pairs::separated_contact(cand.kind, s, cand.pair, ids, &tr, d)
             }
             PairKind::VertexVertex => {
                 let (p, q) = (self.verts[a as usize], self.verts[b as usize]);
@@ -1254,10 +1241,17 @@ impl CollisionGroup {
             if self.skip(k, d) || !self.boxes_overlap(cand, x0, x) {
                 continue;
             }
-            if self.separation[k].d0.is_nan() && self.take_separation(k, d, x0, x) {
-                continue;
+            // A pair tested for the first time since the broad phase: its separation, kept for
+            // the next passes, may settle it here (the verdict its test's prefilter would give)
+            // and otherwise serves the test.
+            let mut known = None;
+            if self.separation[k].d0.is_nan() {
+                known = self.take_separation(k, x0, x);
+                if known.is_some_and(|s| s.certainly_apart(0.0, d)) {
+                    continue;
+                }
             }
-            let Some(mut contact) = self.detect(cand, d, x0, x, 1.0) else {
+            let Some(mut contact) = self.detect(cand, d, x0, x, 1.0, known) else {
                 continue;
             };
             let ids = contact.ids;
@@ -1433,7 +1427,7 @@ impl CollisionGroup {
                 {
                     continue;
                 }
-                let Some(c) = self.detect(cand, self.reach[k], x0, x, 0.0) else {
+                let Some(c) = self.detect(cand, self.reach[k], x0, x, 0.0, None) else {
                     continue;
                 };
                 crossing += 1;

@@ -223,6 +223,37 @@ pub fn vertex_edge_separation(tr: &[Track; 4]) -> Separation {
     }
 }
 
+/// The separation of a pair of a kind with a prefilter (vertex–face, edge–edge,
+/// vertex–edge; tracks in the slots of [`vertex_face`], [`edge_edge`], [`vertex_edge`]), or
+/// `None` for the other kinds.
+pub fn separation(kind: PairKind, tr: &[Track; 4]) -> Option<Separation> {
+    match kind {
+        PairKind::VertexFace => Some(vertex_face_separation(tr)),
+        PairKind::EdgeEdge => Some(edge_edge_separation(tr)),
+        PairKind::VertexEdge => Some(vertex_edge_separation(tr)),
+        _ => None,
+    }
+}
+
+/// The contact of a pair of a kind with a prefilter, from its separation `s` over the same
+/// tracks (as [`separation`] gives it): what [`vertex_face`], [`edge_edge`] or
+/// [`vertex_edge`] return, without taking the distances again. `None` for the other kinds.
+pub fn separated_contact(
+    kind: PairKind,
+    s: Separation,
+    pair: [u32; 2],
+    ids: [u32; 4],
+    tr: &[Track; 4],
+    d: f64,
+) -> Option<Contact> {
+    match kind {
+        PairKind::VertexFace => vertex_face_separated(s, pair, ids, tr, d),
+        PairKind::EdgeEdge => edge_edge_separated(s, pair, ids, tr, d),
+        PairKind::VertexEdge => vertex_edge_separated(s, pair, ids, tr, d),
+        _ => None,
+    }
+}
+
 /// The largest `|Δxᵢ − Δxⱼ|` over `i` in `first`, `j` in `second` (the tracks' displacements).
 #[inline]
 fn relative_motion(tr: &[Track; 4], first: &[usize], second: &[usize]) -> f64 {
@@ -236,9 +267,9 @@ fn relative_motion(tr: &[Track; 4], first: &[usize], second: &[usize]) -> f64 {
     m
 }
 
-/// The time at which a pair gets its contact, from the prefilter's verdict, the distance at
-/// the end `d1`, the contact distance `d` and the continuous test `ccd()` (the earliest time
-/// within `d`, or `None`).
+/// The time at which a pair gets its contact, from its separation `s` (the prefilter's verdict
+/// and the distance at the end), the contact distance `d` and the continuous test `ccd()` (the
+/// earliest time within `d`, or `None`).
 ///
 /// Only a pair that can cross needs a time of impact. A pair that cannot (it moves less than
 /// it is apart) and ends within `d` gets its contact at `t = 0`: the start's separating
@@ -246,24 +277,29 @@ fn relative_motion(tr: &[Track; 4], first: &[usize], second: &[usize]) -> f64 {
 /// be valid (the end may be corrupted by another pair's crossing: a particle that went
 /// through one triangle ends below its neighbours too, and a normal taken there points
 /// sideways). A pair that cannot cross and ends outside `d` needs no correction.
-fn contact_time(
-    verdict: Prefilter,
-    d1: f64,
-    d: f64,
-    ccd: impl FnOnce() -> Option<f64>,
-) -> Option<f64> {
-    match verdict {
+fn contact_time(s: Separation, d: f64, ccd: impl FnOnce() -> Option<f64>) -> Option<f64> {
+    match prefilter(s.d0, s.d1, s.m, d) {
         Prefilter::AtStart => Some(0.0),
         Prefilter::Apart => None,
-        Prefilter::CannotCross => (d1 <= d).then_some(0.0),
+        Prefilter::CannotCross => (s.d1 <= d).then_some(0.0),
         Prefilter::Undecided => ccd(),
     }
 }
 
 /// Vertex `p` against triangle `(a, b, c)`, kept `d` apart.
 pub fn vertex_face(pair: [u32; 2], ids: [u32; 4], tr: &[Track; 4], d: f64) -> Option<Contact> {
-    let Separation { d0, d1, m } = vertex_face_separation(tr);
-    let t = contact_time(prefilter(d0, d1, m, d), d1, d, || {
+    vertex_face_separated(vertex_face_separation(tr), pair, ids, tr, d)
+}
+
+/// [`vertex_face`] from the pair's separation `s` over the same tracks.
+fn vertex_face_separated(
+    s: Separation,
+    pair: [u32; 2],
+    ids: [u32; 4],
+    tr: &[Track; 4],
+    d: f64,
+) -> Option<Contact> {
+    let t = contact_time(s, d, || {
         ccd::point_triangle_ccd(
             [tr[0].x0, tr[1].x0, tr[2].x0, tr[3].x0],
             [tr[0].x1, tr[1].x1, tr[2].x1, tr[3].x1],
@@ -281,8 +317,18 @@ pub fn vertex_face(pair: [u32; 2], ids: [u32; 4], tr: &[Track; 4], d: f64) -> Op
 
 /// Edge `(a, b)` against edge `(c, d)`, kept `dist` apart.
 pub fn edge_edge(pair: [u32; 2], ids: [u32; 4], tr: &[Track; 4], dist: f64) -> Option<Contact> {
-    let Separation { d0, d1, m } = edge_edge_separation(tr);
-    let t = contact_time(prefilter(d0, d1, m, dist), d1, dist, || {
+    edge_edge_separated(edge_edge_separation(tr), pair, ids, tr, dist)
+}
+
+/// [`edge_edge`] from the pair's separation `s` over the same tracks.
+fn edge_edge_separated(
+    s: Separation,
+    pair: [u32; 2],
+    ids: [u32; 4],
+    tr: &[Track; 4],
+    dist: f64,
+) -> Option<Contact> {
+    let t = contact_time(s, dist, || {
         ccd::edge_edge_ccd(
             [tr[0].x0, tr[1].x0, tr[2].x0, tr[3].x0],
             [tr[0].x1, tr[1].x1, tr[2].x1, tr[3].x1],
@@ -301,8 +347,18 @@ pub fn edge_edge(pair: [u32; 2], ids: [u32; 4], tr: &[Track; 4], dist: f64) -> O
 /// Particle `p` against the curve edge `(c, d)`, kept `dist` apart (an edge–edge test whose
 /// first edge is a point).
 pub fn vertex_edge(pair: [u32; 2], ids: [u32; 4], tr: &[Track; 4], dist: f64) -> Option<Contact> {
-    let Separation { d0, d1, m } = vertex_edge_separation(tr);
-    let t = contact_time(prefilter(d0, d1, m, dist), d1, dist, || {
+    vertex_edge_separated(vertex_edge_separation(tr), pair, ids, tr, dist)
+}
+
+/// [`vertex_edge`] from the pair's separation `s` over the same tracks.
+fn vertex_edge_separated(
+    s: Separation,
+    pair: [u32; 2],
+    ids: [u32; 4],
+    tr: &[Track; 4],
+    dist: f64,
+) -> Option<Contact> {
+    let t = contact_time(s, dist, || {
         ccd::edge_edge_ccd(
             [tr[0].x0, tr[0].x0, tr[2].x0, tr[3].x0],
             [tr[0].x1, tr[0].x1, tr[2].x1, tr[3].x1],

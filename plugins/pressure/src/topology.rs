@@ -70,7 +70,7 @@ pub fn chambers(object: &ObjectView<'_>, particles: usize) -> Result<Vec<Chamber
     let bad = |message: String| PluginError::bad_object(name, message);
     let triangles = object.triangles.as_slice();
     let tet_count = object.triangle_tet_count.as_slice();
-    let range = object.first as usize..object.first as usize + object.count as usize;
+    let range = object.particles();
     let surface: Vec<bool> = (0..triangles.len())
         .map(|t| tet_count.get(t).copied().unwrap_or(0) < 2)
         .collect();

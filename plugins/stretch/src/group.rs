@@ -218,8 +218,7 @@ impl StretchGroup {
             chebyshev: None,
         };
         for &(_, object) in &targets {
-            // In usize: `first + count` may not fit the u32 of a corrupt view.
-            let range = object.first as usize..object.first as usize + object.count as usize;
+            let range = object.particles();
             let bad = |message: String| PluginError::bad_object(object.name.as_str(), message);
             for &[i, j] in object.edges.as_slice() {
                 let (iu, ju) = (i as usize, j as usize);
