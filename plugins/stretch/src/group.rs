@@ -14,7 +14,7 @@ use nucleus_sdk::team::{span, SharedArray};
 pub const MIN_REST_LENGTH_SCALE: f64 = 1e-6;
 
 /// The parameters of the `stretch` kind, as written in a scene.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct StretchParams {
     /// Compliance when stretched, `C > 0` (m/N, ≥ 0). Default 0: inextensible.
@@ -35,6 +35,24 @@ pub struct StretchParams {
     pub chebyshev_delay: i64,
     /// Under-relaxation `γ` of the accelerated passes (dimensionless, in (0, 1]). Default 1.
     pub chebyshev_gamma: f64,
+    /// How a pass solves the edges ([`Blocks`]): `"auto"` (default), all the edges at a
+    /// particle at once ([`crate::star`]) where the particle is at least 10 times lighter than a
+    /// dynamic neighbour, one edge after another everywhere else; `"edges"`, one after another
+    /// everywhere; `"stars"`, a star at every particle (several times the work of a pass).
+    pub blocks: String,
+}
+
+/// How a `stretch` pass solves its edges (the `blocks` parameter).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Blocks {
+    /// One edge after another ([`StretchGroup`]).
+    Edges,
+    /// All the edges at a particle at once ([`crate::star::StarGroup`]).
+    Stars,
+    /// Stars only at the particles at least [`crate::star::STAR_MASS_RATIO`] times lighter than
+    /// a dynamic neighbour, every other edge one after another; exactly `Edges` (the same bits)
+    /// when there is no such particle.
+    Auto,
 }
 
 impl Default for StretchParams {
@@ -47,6 +65,7 @@ impl Default for StretchParams {
             chebyshev_rho: 0.0,
             chebyshev_delay: 2,
             chebyshev_gamma: 1.0,
+            blocks: "auto".into(),
         }
     }
 }
@@ -80,12 +99,45 @@ impl StretchParams {
             ParamSpec::number("chebyshev_gamma", d.chebyshev_gamma)
                 .doc("under-relaxation of the accelerated passes")
                 .range(1e-3, 1.0),
+            ParamSpec::text("blocks", &d.blocks)
+                .doc("how a pass solves the edges: \"auto\", all the edges at a particle at once where it is at least 10 times lighter than a dynamic neighbour (where one edge after another stalls) and one edge after another elsewhere; \"edges\", one after another everywhere; \"stars\", all the edges at every particle at once (several times the work)"),
         ]
     }
 
     /// Checks the values against [`specs`](Self::specs); an error names the parameter.
     pub fn validate(&self) -> Result<(), PluginError> {
-        params::validate_against(self, &Self::specs())
+        params::validate_against(self, &Self::specs())?;
+        self.blocks().map(|_| ())
+    }
+
+    /// The `blocks` parameter; an error names it and lists the valid values.
+    pub fn blocks(&self) -> Result<Blocks, PluginError> {
+        match self.blocks.as_str() {
+            "edges" => Ok(Blocks::Edges),
+            "stars" => Ok(Blocks::Stars),
+            "auto" => Ok(Blocks::Auto),
+            other => Err(PluginError::bad_parameter(
+                "blocks",
+                format!("\"{other}\" is not one of \"auto\", \"edges\", \"stars\""),
+            )),
+        }
+    }
+
+    /// Both compliances are 0: the material is hard and keeps no multipliers.
+    pub fn is_hard(&self) -> bool {
+        self.compliance == 0.0 && self.compression_compliance == 0.0
+    }
+
+    /// The Chebyshev acceleration these parameters ask for over the particles of `ids`.
+    pub(crate) fn chebyshev(&self, ids: &[[u32; 2]]) -> Option<Chebyshev> {
+        (self.chebyshev_rho > 0.0).then(|| {
+            Chebyshev::new(
+                ids,
+                self.chebyshev_rho,
+                self.chebyshev_delay as u32,
+                self.chebyshev_gamma,
+            )
+        })
     }
 
     /// The edge material these parameters describe.
@@ -127,7 +179,7 @@ pub struct StretchGroup {
 /// drape at 160 × 1 runs in 27.0 ms per frame instead of 35.1 (whose colours are all below
 /// 4,096 edges), the 32 × 32 one in 7.3 instead of 8.6, and the default demo in 1.14 instead of
 /// 1.26 ms; 512 was slower than both on the 32 × 32 drape (9.4 ms).
-const PARALLEL_MIN_EDGES: usize = 256;
+pub(crate) const PARALLEL_MIN_EDGES: usize = 256;
 
 /// Projects the hard edges `ids[k]` for every `k`, in order: no multipliers, since the hard
 /// step never reads them.
@@ -190,32 +242,40 @@ unsafe fn project_edges_compliant(
     }
 }
 
-impl StretchGroup {
-    /// One constraint per edge of every target object of `scene`, with rest lengths from the
+/// The edges of a `stretch` group's targets, checked, with their rest lengths, in the scene's
+/// order: what both ways of solving them ([`Blocks`]) start from.
+#[derive(Clone, Debug)]
+pub(crate) struct Edges {
+    /// The two global particle indices of each edge.
+    pub ids: Vec<[u32; 2]>,
+    /// Rest length of each edge (m).
+    pub rest: Vec<f64>,
+    /// The largest particle index of any edge (`None` without edges).
+    pub max_index: Option<u32>,
+    /// The number of particles of the scene.
+    pub particles: usize,
+}
+
+impl Edges {
+    /// One entry per edge of every target object of `scene`, with rest lengths from the
     /// scene's rest positions. Edges whose two particles both have inverse mass 0 are dropped.
-    /// An object listed twice among the targets is used once. The batch is ordered so that
-    /// consecutive edges share no particle (see the [crate docs](crate#order-of-the-projection)).
+    /// An object listed twice among the targets is used once.
     ///
     /// Errors: a parameter out of range (naming it); an edge outside its object's particle
     /// range, joining a particle to itself, or with a non-finite rest length (naming the
     /// object); a target index outside the scene.
-    pub fn new(params: &StretchParams, scene: &SceneView<'_>) -> Result<Self, PluginError> {
+    pub fn collect(params: &StretchParams, scene: &SceneView<'_>) -> Result<Edges, PluginError> {
         params.validate()?;
         let targets = scene.unique_targets()?;
         let rest_x = scene.rest_positions();
         let inv_mass = scene.inv_mass.as_slice();
         let particles = rest_x.len().min(inv_mass.len());
         let edge_count = targets.iter().map(|(_, o)| o.edges.len()).sum();
-
-        let mut group = Self {
+        let mut edges = Edges {
             ids: Vec::with_capacity(edge_count),
             rest: Vec::with_capacity(edge_count),
-            lambda: Vec::new(),
-            material: params.material(),
-            hard: params.compliance == 0.0 && params.compression_compliance == 0.0,
             max_index: None,
-            batches: Vec::new(),
-            chebyshev: None,
+            particles,
         };
         for &(_, object) in &targets {
             let range = object.particles();
@@ -239,11 +299,73 @@ impl StretchGroup {
                 if !rest.is_finite() {
                     return Err(bad(format!("edge ({i}, {j}) has a non-finite rest length")));
                 }
-                group.ids.push([i, j]);
-                group.rest.push(rest);
-                group.max_index = group.max_index.max(Some(i.max(j)));
+                edges.ids.push([i, j]);
+                edges.rest.push(rest);
+                edges.max_index = edges.max_index.max(Some(i.max(j)));
             }
         }
+        Ok(edges)
+    }
+}
+
+/// The strain `|l − l0| / l0` of every edge (for `l0 = 0`, the length `l` itself, in m), and
+/// the energy `Σ ½ C²/α` stored in its compliant edges (J): the residual of both ways of
+/// solving a `stretch` group.
+pub(crate) fn edge_residual(
+    ids: &[[u32; 2]],
+    rest: &[f64],
+    material: &EdgeMaterial,
+    x: &[DVec3],
+) -> Residual {
+    let mut out = Residual::default();
+    let mut sum_sq = 0.0;
+    for (&[i, j], &rest) in ids.iter().zip(rest) {
+        let (Some(&xi), Some(&xj)) = (x.get(i as usize), x.get(j as usize)) else {
+            continue;
+        };
+        let len = (xj - xi).length();
+        let c = len - rest;
+        let strain = if rest > 0.0 { c.abs() / rest } else { len };
+        out.count += 1;
+        out.max = out.max.max(strain);
+        sum_sq += strain * strain;
+        let alpha = material.compliance_for(c);
+        if alpha > 0.0 {
+            out.energy += 0.5 * c * c / alpha;
+        }
+    }
+    if out.count > 0 {
+        out.rms = (sum_sq / out.count as f64).sqrt();
+    }
+    out
+}
+
+impl StretchGroup {
+    /// One constraint per edge of every target object of `scene`, with rest lengths from the
+    /// scene's rest positions. Edges whose two particles both have inverse mass 0 are dropped.
+    /// An object listed twice among the targets is used once. The batch is ordered so that
+    /// consecutive edges share no particle (see the [crate docs](crate#order-of-the-projection)).
+    ///
+    /// Errors: a parameter out of range (naming it); an edge outside its object's particle
+    /// range, joining a particle to itself, or with a non-finite rest length (naming the
+    /// object); a target index outside the scene.
+    pub fn new(params: &StretchParams, scene: &SceneView<'_>) -> Result<Self, PluginError> {
+        Ok(Self::from_edges(params, Edges::collect(params, scene)?))
+    }
+
+    /// The group of the given `edges` (checked by [`Edges::collect`]).
+    pub(crate) fn from_edges(params: &StretchParams, edges: Edges) -> Self {
+        let mut group = Self {
+            ids: edges.ids,
+            rest: edges.rest,
+            lambda: Vec::new(),
+            material: params.material(),
+            hard: params.is_hard(),
+            max_index: edges.max_index,
+            batches: Vec::new(),
+            chebyshev: None,
+        };
+        let particles = edges.particles;
         let colours = edge_colours(&group.ids, particles);
         let order = independent_sets_order(&colours);
         group.ids = order.iter().map(|&k| group.ids[k]).collect();
@@ -258,15 +380,8 @@ impl StretchGroup {
         if !group.hard {
             group.lambda = vec![0.0; group.ids.len()];
         }
-        if params.chebyshev_rho > 0.0 {
-            group.chebyshev = Some(Chebyshev::new(
-                &group.ids,
-                params.chebyshev_rho,
-                params.chebyshev_delay as u32,
-                params.chebyshev_gamma,
-            ));
-        }
-        Ok(group)
+        group.chebyshev = params.chebyshev(&group.ids);
+        group
     }
 
     /// The edges, as global particle indices.
@@ -379,39 +494,18 @@ impl ConstraintGroup for StretchGroup {
     /// Strain `|l − l0| / l0` of every edge (for `l0 = 0`, the length `l` itself, in m), and
     /// the energy `Σ ½ C²/α` stored in the compliant edges (J).
     fn residual(&self, ctx: &SolveContext<'_>) -> Residual {
-        let x = ctx.positions();
-        let mut out = Residual::default();
-        let mut sum_sq = 0.0;
-        for (&[i, j], &rest) in self.ids.iter().zip(&self.rest) {
-            let (Some(&xi), Some(&xj)) = (x.get(i as usize), x.get(j as usize)) else {
-                continue;
-            };
-            let len = (xj - xi).length();
-            let c = len - rest;
-            let strain = if rest > 0.0 { c.abs() / rest } else { len };
-            out.count += 1;
-            out.max = out.max.max(strain);
-            sum_sq += strain * strain;
-            let alpha = self.material.compliance_for(c);
-            if alpha > 0.0 {
-                out.energy += 0.5 * c * c / alpha;
-            }
-        }
-        if out.count > 0 {
-            out.rms = (sum_sq / out.count as f64).sqrt();
-        }
-        out
+        edge_residual(&self.ids, &self.rest, &self.material, ctx.positions())
     }
 }
 
 /// The colour of an edge of a particle that already has edges of all 64 colours: the last
 /// colour, in which edges may share particles.
-const OVERFLOW_COLOUR: usize = 64;
+pub(crate) const OVERFLOW_COLOUR: usize = 64;
 
 /// Greedy colouring of the edges in their given order: each edge takes the smallest colour
 /// no edge at either of its particles has yet, so the edges of one colour (below
 /// [`OVERFLOW_COLOUR`]) share no particle.
-fn edge_colours(ids: &[[u32; 2]], particles: usize) -> Vec<usize> {
+pub(crate) fn edge_colours(ids: &[[u32; 2]], particles: usize) -> Vec<usize> {
     let mut used = vec![0u64; particles];
     ids.iter()
         .map(|&[i, j]| {
@@ -444,7 +538,14 @@ pub(crate) fn build(
     scene: &SceneView<'_>,
 ) -> Result<Box<dyn ConstraintGroup>, PluginError> {
     let params: StretchParams = params::parse(params_json)?;
-    Ok(Box::new(StretchGroup::new(&params, scene)?))
+    let edges = Edges::collect(&params, scene)?;
+    let blocks = params.blocks()?;
+    let centres = crate::star::centres(&edges, scene.inv_mass.as_slice(), blocks);
+    Ok(if centres.is_empty() {
+        Box::new(StretchGroup::from_edges(&params, edges))
+    } else {
+        Box::new(crate::star::StarGroup::from_edges(&params, edges, &centres))
+    })
 }
 
 #[cfg(test)]

@@ -167,6 +167,7 @@ pub mod chebyshev;
 pub mod distance;
 pub mod group;
 pub mod hierarchy;
+pub mod star;
 pub mod tether;
 
 #[cfg(test)]
