@@ -193,6 +193,52 @@ objects = ["cloth"]
 }
 
 #[test]
+fn stars_on_one_and_two_threads_give_bit_identical_frames() {
+    // 96 × 96 with a star at every particle (`blocks = "stars"`): colours of ~700 stars, split
+    // over the team. Then the default `auto` on a cloth with a column 1,000 times lighter:
+    // stars there, the edge pass (split over the team) everywhere else.
+    let stars = drape_text(
+        96,
+        4,
+        4,
+        1,
+        r#"
+[[constraints]]
+kind = "stretch"
+objects = ["cloth"]
+params = { blocks = "stars" }
+"#,
+    );
+    let light_column = r#"
+[solver]
+frames = 4
+substeps = 4
+[[objects]]
+name = "cloth"
+mass = 1.0
+pins = ["corners:row0"]
+mass_maps = [{ vertices = [{ min = [0.49, -1.0, -1.0], max = [0.51, 1.0, 1.0] }], scale = 1e-3 }]
+[objects.grid]
+size = [1.0, 1.0]
+resolution = [96, 96]
+plane = "xz"
+[[constraints]]
+kind = "stretch"
+"#;
+    for (tag, text) in [("stars", stars.as_str()), ("auto", light_column)] {
+        let scene = temp_dir(&format!("{tag}-scene")).join("scene.toml");
+        std::fs::write(&scene, text).unwrap();
+        let scene = scene.to_str().unwrap();
+        let a = run_with(&format!("{tag}-threads-1"), scene, "1", &[]);
+        let b = run_with(&format!("{tag}-threads-2"), scene, "2", &[]);
+        assert_same_frames(&a, &b, 4, &format!("1 and 2 threads ({tag})"));
+        let first = std::fs::read(a.join("frame_0000.obj")).unwrap();
+        let last = std::fs::read(a.join("frame_0004.obj")).unwrap();
+        assert!(first != last, "the cloth must have moved ({tag})");
+    }
+}
+
+#[test]
 fn a_cloth_colliding_with_itself_and_a_sphere_gives_the_same_bits_on_one_and_two_threads() {
     // 32 × 32 (1,024 vertices, 2,945 edges): the broad phase's vertex–face and edge–edge
     // queries are split over the team; the cloth reaches the sphere and folds over it.

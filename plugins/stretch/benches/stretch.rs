@@ -2,7 +2,8 @@
 //! cloth (48,641 distance constraints), called through the ABI trait object exactly as the
 //! host calls it. Criterion reports constraints per second; ns per constraint is its inverse.
 //! The pass runs on a thread team of `RAYON_NUM_THREADS` (default: the machine's cores), lent
-//! to the context as the host lends its own.
+//! to the context as the host lends its own. `project_hard_stars` is the same pass with a star
+//! at every particle (`blocks = "stars"`): the same constraints, each solved twice.
 
 use std::time::Duration;
 
@@ -94,6 +95,7 @@ fn project_pass(c: &mut Criterion) {
             "project_soft_damped",
             r#"{"compliance": 1e-6, "compression_compliance": 1e-3, "damping": 1}"#,
         ),
+        ("project_hard_stars", r#"{"blocks": "stars"}"#),
     ] {
         let mut g = group(&cloth, params);
         bench.throughput(Throughput::Elements(g.constraint_count()));

@@ -265,10 +265,11 @@ pub fn solve3(m: DMat3, b: DVec3) -> Option<DVec3> {
         if !p.is_finite() || p.abs() <= f64::MIN_POSITIVE {
             return None;
         }
-        for r in col + 1..3 {
-            let f = rows[r][col] / p;
-            for c in col..4 {
-                rows[r][c] -= f * rows[col][c];
+        let pivot_row = rows[col];
+        for row in rows.iter_mut().skip(col + 1) {
+            let f = row[col] / p;
+            for (a, b) in row.iter_mut().zip(pivot_row).skip(col) {
+                *a -= f * b;
             }
         }
     }
@@ -806,7 +807,7 @@ mod tests {
                     0.26042121008748575,
                 ),
                 0.0,
-                0.7071067811865476,
+                std::f64::consts::FRAC_1_SQRT_2,
             ),
             (
                 v(
@@ -872,7 +873,7 @@ mod tests {
                     -0.030357605181922653,
                 ),
                 1.0,
-                0.7071067811865476,
+                std::f64::consts::FRAC_1_SQRT_2,
             ),
         ];
         let mut spokes: Vec<Spoke> = star
