@@ -61,8 +61,12 @@ pub struct FrameStats {
     pub contacts: usize,
     /// Largest number of candidate pairs in a substep.
     pub candidates: usize,
-    /// Broad phases run (one per substep, plus one whenever a primitive left its margin).
+    /// Full broad phases run: when a collider left its box or a mass changed, and when more
+    /// than a quarter of the primitives left their boxes (at a substep's start or during
+    /// the passes).
     pub broad_phases: usize,
+    /// Partial broad phases: only the primitives that left their boxes looked for new pairs.
+    pub refreshes: usize,
     /// Vertices frozen by the fail-safe.
     pub frozen: usize,
     /// Crossing pairs the fail-safe could not resolve (0 unless two colliders squeeze a
@@ -101,6 +105,12 @@ pub struct CollisionGroup {
     /// boxes are `d` apart needs no exact rest distance.
     edge_rest_boxes: Vec<Aabb>,
     face_rest_boxes: Vec<Aabb>,
+    /// The same-object vertex–face and edge–edge (`j > i`) pairs whose rest boxes are closer
+    /// than their thickness, with the contact distance [`rest_reach`] gives them: every
+    /// other same-object pair keeps its thickness. Found once; the broad phase looks a pair
+    /// up instead of taking its exact rest distance every time it finds it.
+    near_vertex_face: RestPairs,
+    near_edge_edge: RestPairs,
     colliders: Vec<Collider>,
     /// Distance from each collider's core to its surface, plus its thickness (m).
     collider_radius: Vec<f64>,
@@ -121,10 +131,28 @@ pub struct CollisionGroup {
     iso_boxes: Vec<Aabb>,
     edge_bvh: Bvh,
     face_bvh: Bvh,
+    /// A tree over the vertices' boxes, for the faces that left their boxes
+    /// ([`Self::refresh_escaped`]).
+    vert_bvh: Bvh,
+    /// Scratch of [`Self::refresh_escaped`]: which primitives left their boxes, and the new
+    /// pairs.
+    escaped_verts: Vec<bool>,
+    escaped_edges: Vec<bool>,
+    escaped_faces: Vec<bool>,
+    /// The escaped vertices, faces and edges, listed for [`Self::escaped_pairs`].
+    escaped_list: [Vec<u32>; 3],
+    fresh: Vec<(Candidate, f64)>,
     grid: HashGrid,
     iso_pairs: Vec<[u32; 2]>,
     stack: Vec<u32>,
     collider_boxes: Vec<Aabb>,
+    /// What the candidates were last found with, beyond the primitives' boxes: the colliders'
+    /// boxes, the features' boxes and the vertices' inverse masses (empty before the first
+    /// broad phase). A substep whose boxes all lie within these, and whose masses are the same,
+    /// keeps the candidates ([`Self::candidates_hold`]).
+    found_collider_boxes: Vec<Aabb>,
+    found_feat_boxes: Vec<Aabb>,
+    found_inv_mass: Vec<f64>,
     pose0: Vec<Pose>,
     pose1: Vec<Pose>,
     /// World positions of the feature points at the start and the end of the substep, and of
@@ -209,6 +237,46 @@ fn sort_by_second(pending: &mut [(Candidate, f64)], from: usize) {
     pending[from..].sort_unstable_by_key(|c| c.0.pair[1]);
 }
 
+/// Pairs of primitives found once from the rest shape, per first primitive (compressed rows):
+/// the second primitives in increasing order, each with its contact distance (`None`:
+/// glued, never a pair).
+#[derive(Clone, Debug, Default)]
+struct RestPairs {
+    /// Row `i` is `first[i]..first[i + 1]`.
+    first: Vec<u32>,
+    other: Vec<u32>,
+    reach: Vec<Option<f64>>,
+}
+
+impl RestPairs {
+    /// The rows of `n` first primitives, each filled by `row(i, out)` in any order.
+    fn collect(n: usize, mut row: impl FnMut(usize, &mut Vec<(u32, Option<f64>)>)) -> RestPairs {
+        let mut pairs = RestPairs {
+            first: Vec::with_capacity(n + 1),
+            ..RestPairs::default()
+        };
+        pairs.first.push(0);
+        let mut out = Vec::new();
+        for i in 0..n {
+            out.clear();
+            row(i, &mut out);
+            out.sort_unstable_by_key(|&(j, _)| j);
+            pairs.other.extend(out.iter().map(|&(j, _)| j));
+            pairs.reach.extend(out.iter().map(|&(_, r)| r));
+            pairs.first.push(pairs.other.len() as u32);
+        }
+        pairs
+    }
+
+    /// The contact distance of pair `(i, j)` if it is listed (`Some(None)`: glued).
+    #[inline]
+    fn reach(&self, i: usize, j: u32) -> Option<Option<f64>> {
+        let row = self.first[i] as usize..self.first[i + 1] as usize;
+        let k = self.other[row.clone()].binary_search(&j).ok()?;
+        Some(self.reach[row.start + k])
+    }
+}
+
 /// The contact distance of a same-object pair whose rest boxes are `gap2` (squared) apart,
 /// from its exact rest distance `exact()` only when the boxes are closer than `d`.
 fn same_object_reach(d: f64, gap2: f64, exact: &dyn Fn() -> f64) -> Option<f64> {
@@ -261,6 +329,8 @@ impl CollisionGroup {
             face_obj: Vec::new(),
             edge_rest_boxes: Vec::new(),
             face_rest_boxes: Vec::new(),
+            near_vertex_face: RestPairs::default(),
+            near_edge_edge: RestPairs::default(),
             colliders,
             collider_radius,
             feat_point_tracks: vec![[DVec3::ZERO; 2]; feat_points.len()],
@@ -277,10 +347,19 @@ impl CollisionGroup {
             iso_boxes: Vec::new(),
             edge_bvh: Bvh::default(),
             face_bvh: Bvh::default(),
+            vert_bvh: Bvh::default(),
+            escaped_verts: Vec::new(),
+            escaped_edges: Vec::new(),
+            escaped_faces: Vec::new(),
+            escaped_list: Default::default(),
+            fresh: Vec::new(),
             grid: HashGrid::default(),
             iso_pairs: Vec::new(),
             stack: Vec::with_capacity(128),
             collider_boxes: Vec::new(),
+            found_collider_boxes: Vec::new(),
+            found_feat_boxes: Vec::new(),
+            found_inv_mass: Vec::new(),
             pose0: Vec::new(),
             pose1: Vec::new(),
             pending: Vec::new(),
@@ -457,6 +536,10 @@ impl CollisionGroup {
             .collect();
         g.edge_bvh = Bvh::build(&g.edge_boxes);
         g.face_bvh = Bvh::build(&g.face_boxes);
+        g.vert_bvh = Bvh::build(&g.vert_boxes);
+        g.escaped_verts = vec![false; g.verts.len()];
+        g.escaped_edges = vec![false; g.edges.len()];
+        g.escaped_faces = vec![false; g.faces.len()];
         let rest = &g.rest;
         g.edge_rest_boxes = g
             .edges
@@ -468,6 +551,8 @@ impl CollisionGroup {
             .iter()
             .map(|f| Aabb::of_points(&f.map(|i| rest[i as usize]), 0.0))
             .collect();
+        g.near_vertex_face = g.near_vertex_face_pairs();
+        g.near_edge_edge = g.near_edge_edge_pairs();
         g.iso_boxes = vec![Aabb::EMPTY; g.isolated.len()];
         g.collider_boxes = vec![Aabb::EMPTY; g.colliders.len()];
         g.pose0 = vec![Pose::IDENTITY; g.colliders.len()];
@@ -496,6 +581,63 @@ impl CollisionGroup {
             .filter(|&&i| self.vert_obj[i as usize] == k)
             .count();
         (faces > 0 && verts > 3) || edges > 1 || isolated > 1 || (isolated > 0 && edges > 0)
+    }
+
+    /// The same-object vertex–face pairs of [`Self::near_vertex_face`], found with a
+    /// bounding-volume tree over the faces' rest boxes.
+    fn near_vertex_face_pairs(&self) -> RestPairs {
+        let grown: Vec<Aabb> = (self.face_rest_boxes.iter().zip(&self.face_obj))
+            .map(|(b, &o)| b.grow(2.0 * self.radius(o)))
+            .collect();
+        let bvh = Bvh::build(&grown);
+        let mut stack = Vec::new();
+        RestPairs::collect(self.verts.len(), |i, out| {
+            let (p, po) = (self.verts[i], self.vert_obj[i]);
+            let at_rest = Aabb::of_points(&[self.rest[p as usize]], 0.0);
+            let d = 2.0 * self.radius(po);
+            bvh.query(&at_rest, &grown, &mut stack, |f| {
+                let tri = self.faces[f as usize];
+                if self.face_obj[f as usize] != po || tri.contains(&p) {
+                    return;
+                }
+                if at_rest.distance_squared(&self.face_rest_boxes[f as usize]) < d * d {
+                    let [a, b, c] = tri.map(|k| self.rest[k as usize]);
+                    let exact = distance::point_triangle_closest(self.rest[p as usize], a, b, c).1;
+                    out.push((f, rest_reach(d, exact)));
+                }
+            });
+        })
+    }
+
+    /// The same-object edge–edge pairs `(i, j)`, `j > i`, of [`Self::near_edge_edge`].
+    fn near_edge_edge_pairs(&self) -> RestPairs {
+        let grown: Vec<Aabb> = (self.edge_rest_boxes.iter().zip(&self.edge_obj))
+            .map(|(b, &o)| b.grow(2.0 * self.radius(o)))
+            .collect();
+        let bvh = Bvh::build(&grown);
+        let mut stack = Vec::new();
+        RestPairs::collect(self.edges.len(), |i, out| {
+            let (e, eo) = (self.edges[i], self.edge_obj[i]);
+            let d = 2.0 * self.radius(eo);
+            bvh.query(&self.edge_rest_boxes[i], &grown, &mut stack, |j| {
+                let f = self.edges[j as usize];
+                if j as usize <= i
+                    || self.edge_obj[j as usize] != eo
+                    || f.contains(&e[0])
+                    || f.contains(&e[1])
+                {
+                    return;
+                }
+                let gap2 =
+                    self.edge_rest_boxes[i].distance_squared(&self.edge_rest_boxes[j as usize]);
+                if gap2 < d * d {
+                    let [a, b] = e.map(|v| self.rest[v as usize]);
+                    let [c, g] = f.map(|v| self.rest[v as usize]);
+                    let exact = distance::segment_segment_closest(a, b, c, g).2;
+                    out.push((j, rest_reach(d, exact)));
+                }
+            });
+        })
     }
 
     fn is_excluded(&self, a: u32, b: u32) -> bool {
@@ -602,29 +744,51 @@ impl CollisionGroup {
             (&self.edge_bvh, &self.edge_boxes)
         };
         bvh.query(&tight.grow(reach), boxes, stack, |j| {
-            let (object, kinematic) = if faces {
-                let tri = self.faces[j as usize];
-                (
-                    self.face_obj[j as usize],
-                    Self::all_kinematic(&tri, inv_mass),
-                )
-            } else {
-                let points_only_where_tested =
-                    kind == PairKind::FeaturePointEdge && !self.edge_point_tests[j as usize];
-                let edge = self.edges[j as usize];
-                (
-                    self.edge_obj[j as usize],
-                    points_only_where_tested || Self::all_kinematic(&edge, inv_mass),
-                )
-            };
-            if kinematic
-                || !self.collides_with_collider(object, c)
-                || tight.distance_squared(&boxes[j as usize]) > reach * reach
-            {
-                return;
+            if let Some(d) = self.feature_reach(kind, c, tight, faces, j, inv_mass) {
+                pending.push((Candidate { kind, pair: [f, j] }, d));
             }
-            pending.push((Candidate { kind, pair: [f, j] }, rc + self.radius(object)));
         });
+    }
+
+    /// The contact distance of collider `c`'s feature with box `tight` against face (`faces`)
+    /// or edge `j`, if they form a candidate: not all kinematic, layers that collide, and the
+    /// boxes' Euclidean gap within the collider's radius and margin.
+    #[inline]
+    fn feature_reach(
+        &self,
+        kind: PairKind,
+        c: u32,
+        tight: Aabb,
+        faces: bool,
+        j: u32,
+        inv_mass: &[f64],
+    ) -> Option<f64> {
+        let rc = self.collider_radius[c as usize];
+        let reach = rc + margin(rc);
+        let (object, kinematic, b) = if faces {
+            let tri = self.faces[j as usize];
+            (
+                self.face_obj[j as usize],
+                Self::all_kinematic(&tri, inv_mass),
+                self.face_boxes[j as usize],
+            )
+        } else {
+            let points_only_where_tested =
+                kind == PairKind::FeaturePointEdge && !self.edge_point_tests[j as usize];
+            let edge = self.edges[j as usize];
+            (
+                self.edge_obj[j as usize],
+                points_only_where_tested || Self::all_kinematic(&edge, inv_mass),
+                self.edge_boxes[j as usize],
+            )
+        };
+        if kinematic
+            || !self.collides_with_collider(object, c)
+            || tight.distance_squared(&b) > reach * reach
+        {
+            return None;
+        }
+        Some(rc + self.radius(object))
     }
 
     /// Refits the trees to the swept boxes over `[x0, x]` (grown by a margin) and collects the
@@ -648,6 +812,7 @@ impl CollisionGroup {
         }
         self.edge_bvh.refit(&self.edge_boxes);
         self.face_bvh.refit(&self.face_boxes);
+        self.vert_bvh.refit(&self.vert_boxes);
         let mut stack = std::mem::take(&mut self.stack);
         let mut pending = std::mem::take(&mut self.pending);
         pending.clear();
@@ -818,15 +983,310 @@ impl CollisionGroup {
         self.stack = stack;
         self.stats.candidates = self.stats.candidates.max(self.candidates.len());
 
-        // The reference for the passes' skip test: no separation known yet.
-        let n = self.x_ref.len();
-        self.x_ref.copy_from_slice(&x[..n]);
-        self.moved.fill(0.0);
+        self.found_collider_boxes.clone_from(&self.collider_boxes);
+        self.found_feat_boxes.clear();
+        self.found_feat_boxes
+            .extend_from_slice(&self.feat_point_boxes);
+        self.found_feat_boxes
+            .extend_from_slice(&self.feat_edge_boxes);
+        self.found_inv_mass.clear();
+        self.found_inv_mass
+            .extend(self.verts.iter().map(|&p| inv_mass[p as usize]));
         self.cand_ids.clear();
         for k in 0..self.candidates.len() {
             let ids = self.candidate_ids(self.candidates[k]);
             self.cand_ids.push(ids);
         }
+        self.restart_passes(x);
+    }
+
+    /// After some primitives left their boxes during the passes: gives only those new boxes
+    /// and finds only their pairs, keeping every other candidate (found with the boxes the
+    /// rest still lie in). Like [`Self::candidates_hold`], the list then holds every pair that
+    /// can touch, and the passes reach the same contacts in the same order as after a full
+    /// broad phase. A full broad phase instead when more than a quarter of the primitives
+    /// left, or the group has unconnected particles (their hash grid is not updated in part).
+    ///
+    /// Returns whether the candidates were found again (the passes' state then restarted).
+    fn refresh_escaped(
+        &mut self,
+        x0: &[DVec3],
+        x: &[DVec3],
+        inv_mass: &[f64],
+        team: TeamRef<'_>,
+    ) -> bool {
+        let mut count = 0;
+        for i in 0..self.verts.len() {
+            let tight = self.vert_box(i, x0, x);
+            let out = !self.vert_boxes[i].contains(&tight);
+            self.escaped_verts[i] = out;
+            if out {
+                self.vert_boxes[i] = tight.grow(margin(self.radius(self.vert_obj[i])));
+                count += 1;
+            }
+        }
+        for i in 0..self.edges.len() {
+            let tight = self.edge_box(i, x0, x);
+            let out = !self.edge_boxes[i].contains(&tight);
+            self.escaped_edges[i] = out;
+            if out {
+                self.edge_boxes[i] = tight.grow(margin(self.radius(self.edge_obj[i])));
+                count += 1;
+            }
+        }
+        for i in 0..self.faces.len() {
+            let tight = self.face_box(i, x0, x);
+            let out = !self.face_boxes[i].contains(&tight);
+            self.escaped_faces[i] = out;
+            if out {
+                self.face_boxes[i] = tight.grow(margin(self.radius(self.face_obj[i])));
+                count += 1;
+            }
+        }
+        let total = self.verts.len() + self.edges.len() + self.faces.len();
+        if count == 0 {
+            return false;
+        }
+        if !self.isolated.is_empty() || 4 * count > total {
+            self.broad_phase(x0, x, inv_mass, team);
+            return true;
+        }
+        self.stats.refreshes += 1;
+        self.edge_bvh.refit(&self.edge_boxes);
+        self.face_bvh.refit(&self.face_boxes);
+        self.vert_bvh.refit(&self.vert_boxes);
+
+        // The pairs of the escaped primitives, found once each: the vertices', faces' and
+        // edges' queries split over the thread team as in the full broad phase (the hits
+        // are sorted below, so the list is the same on any number of threads).
+        let mut fresh = std::mem::take(&mut self.fresh);
+        let mut stack = std::mem::take(&mut self.stack);
+        fresh.clear();
+        for kind in 0..3 {
+            let list = match kind {
+                0 => &mut self.escaped_list[0],
+                1 => &mut self.escaped_list[1],
+                _ => &mut self.escaped_list[2],
+            };
+            list.clear();
+            let flags = [
+                &self.escaped_verts,
+                &self.escaped_faces,
+                &self.escaped_edges,
+            ][kind];
+            list.extend((0..flags.len() as u32).filter(|&k| flags[k as usize]));
+        }
+        for &i in &self.escaped_list[0] {
+            let i = i as usize;
+            let vo = self.vert_obj[i];
+            if inv_mass[self.verts[i] as usize] > 0.0 {
+                for c in 0..self.colliders.len() {
+                    if self.vert_boxes[i].overlaps(&self.collider_boxes[c])
+                        && self.collides_with_collider(vo, c as u32)
+                    {
+                        let kind = PairKind::Collider;
+                        let d = self.radius(vo) + self.colliders[c].thickness;
+                        fresh.push((
+                            Candidate {
+                                kind,
+                                pair: [c as u32, i as u32],
+                            },
+                            d,
+                        ));
+                    }
+                }
+            }
+        }
+        for kind in 0..3 {
+            let n = self.escaped_list[kind].len();
+            self.split_queries(n, team, &mut stack, &mut fresh, &|this, r, stack, out| {
+                this.escaped_pairs(kind, r, inv_mass, stack, out)
+            });
+        }
+        fresh.sort_unstable_by_key(|&(c, _)| c);
+
+        // Merge them with the candidates that involve no escaped primitive (both sorted,
+        // disjoint).
+        let mut pending = std::mem::take(&mut self.pending);
+        pending.clear();
+        let mut next = fresh.iter().peekable();
+        for (&c, &d) in self.candidates.iter().zip(&self.reach) {
+            if self.involves_escaped(c) {
+                continue;
+            }
+            while let Some(&&(f, fd)) = next.peek() {
+                if f >= c {
+                    break;
+                }
+                pending.push((f, fd));
+                next.next();
+            }
+            pending.push((c, d));
+        }
+        pending.extend(next);
+        debug_assert!(
+            pending.windows(2).all(|w| w[0].0 < w[1].0),
+            "candidates out of order"
+        );
+        self.candidates.clear();
+        self.reach.clear();
+        for &(c, d) in &pending {
+            self.candidates.push(c);
+            self.reach.push(d);
+        }
+        self.pending = pending;
+        self.fresh = fresh;
+        self.stack = stack;
+        self.stats.candidates = self.stats.candidates.max(self.candidates.len());
+        self.cand_ids.clear();
+        for k in 0..self.candidates.len() {
+            let ids = self.candidate_ids(self.candidates[k]);
+            self.cand_ids.push(ids);
+        }
+        self.restart_passes(x);
+        true
+    }
+
+    /// The new pairs of the escaped vertices (`kind` 0: against the faces), faces (1: against
+    /// the vertices that stayed and the colliders' feature points) or edges (2: against the
+    /// edges, each pair of two escaped edges once, and the features) listed at `range` of
+    /// [`Self::escaped_list`].
+    fn escaped_pairs(
+        &self,
+        kind: usize,
+        range: std::ops::Range<usize>,
+        inv_mass: &[f64],
+        stack: &mut Vec<u32>,
+        fresh: &mut Vec<(Candidate, f64)>,
+    ) {
+        for &k in &self.escaped_list[kind][range] {
+            match kind {
+                0 => {
+                    let i = k as usize;
+                    self.face_bvh
+                        .query(&self.vert_boxes[i], &self.face_boxes, stack, |f| {
+                            if let Some(d) = self.vertex_face_reach(i, f, inv_mass) {
+                                let kind = PairKind::VertexFace;
+                                fresh.push((Candidate { kind, pair: [k, f] }, d));
+                            }
+                        });
+                }
+                1 => {
+                    let f = k;
+                    self.vert_bvh.query(
+                        &self.face_boxes[f as usize],
+                        &self.vert_boxes,
+                        stack,
+                        |i| {
+                            if self.escaped_verts[i as usize] {
+                                return; // found from the vertex
+                            }
+                            if let Some(d) = self.vertex_face_reach(i as usize, f, inv_mass) {
+                                let kind = PairKind::VertexFace;
+                                fresh.push((Candidate { kind, pair: [i, f] }, d));
+                            }
+                        },
+                    );
+                    for (p, &(c, _)) in self.feat_points.iter().enumerate() {
+                        let kind = PairKind::FeatureFace;
+                        let tight = self.feat_point_boxes[p];
+                        if let Some(d) = self.feature_reach(kind, c, tight, true, f, inv_mass) {
+                            fresh.push((
+                                Candidate {
+                                    kind,
+                                    pair: [p as u32, f],
+                                },
+                                d,
+                            ));
+                        }
+                    }
+                }
+                _ => {
+                    let i = k as usize;
+                    self.edge_bvh
+                        .query(&self.edge_boxes[i], &self.edge_boxes, stack, |j| {
+                            let ju = j as usize;
+                            if ju == i || (self.escaped_edges[ju] && ju < i) {
+                                return; // itself, or found from the other escaped edge
+                            }
+                            let (a, b) = (i.min(ju), i.max(ju) as u32);
+                            if let Some(d) = self.edge_edge_reach(a, b, inv_mass) {
+                                let kind = PairKind::EdgeEdge;
+                                fresh.push((
+                                    Candidate {
+                                        kind,
+                                        pair: [a as u32, b],
+                                    },
+                                    d,
+                                ));
+                            }
+                        });
+                    let features = (self.feat_points.iter().map(|f| f.0))
+                        .zip(&self.feat_point_boxes)
+                        .map(|(c, &b)| (PairKind::FeaturePointEdge, c, b))
+                        .chain(
+                            (self.feat_edges.iter().map(|f| f.0))
+                                .zip(&self.feat_edge_boxes)
+                                .map(|(c, &b)| (PairKind::FeatureEdgeEdge, c, b)),
+                        );
+                    let points = self.feat_points.len();
+                    for (n, (kind, c, tight)) in features.enumerate() {
+                        let p = if n < points { n } else { n - points };
+                        if let Some(d) = self.feature_reach(kind, c, tight, false, k, inv_mass) {
+                            fresh.push((
+                                Candidate {
+                                    kind,
+                                    pair: [p as u32, k],
+                                },
+                                d,
+                            ));
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// Whether candidate `c` has a primitive marked escaped by [`Self::refresh_escaped`].
+    fn involves_escaped(&self, c: Candidate) -> bool {
+        let [a, b] = c.pair.map(|k| k as usize);
+        match c.kind {
+            PairKind::Collider => self.escaped_verts[b],
+            PairKind::VertexFace => self.escaped_verts[a] || self.escaped_faces[b],
+            PairKind::EdgeEdge => self.escaped_edges[a] || self.escaped_edges[b],
+            PairKind::FeatureFace => self.escaped_faces[b],
+            PairKind::FeaturePointEdge | PairKind::FeatureEdgeEdge => self.escaped_edges[b],
+            // Only with unconnected particles, which take a full broad phase.
+            PairKind::VertexVertex | PairKind::VertexEdge => true,
+        }
+    }
+
+    /// Whether the candidates last found still hold every pair that can touch in the substep
+    /// as far as the colliders and masses go: every collider box and feature box lies within
+    /// the box it was found with, and no vertex changed its inverse mass (a pinned pair may
+    /// have been left out). Then only the primitives that left their own boxes need new pairs
+    /// ([`Self::refresh_escaped`]): a fresh broad phase would find a subset of the list, and
+    /// the passes, which test every candidate exactly and keep their order, reach the same
+    /// contacts in the same order.
+    fn colliders_and_masses_hold(&self, inv_mass: &[f64]) -> bool {
+        let feat_boxes = self.feat_point_boxes.iter().chain(&self.feat_edge_boxes);
+        self.found_inv_mass.len() == self.verts.len()
+            && self.found_feat_boxes.len()
+                == self.feat_point_boxes.len() + self.feat_edge_boxes.len()
+            && (self.verts.iter().zip(&self.found_inv_mass))
+                .all(|(&p, &w)| inv_mass[p as usize].to_bits() == w.to_bits())
+            && (self.found_collider_boxes.iter().zip(&self.collider_boxes))
+                .all(|(found, now)| found.contains(now))
+            && (self.found_feat_boxes.iter().zip(feat_boxes))
+                .all(|(found, now)| found.contains(now))
+    }
+
+    /// Sets the passes' state up for the current candidates: no separation known yet, no
+    /// contact.
+    fn restart_passes(&mut self, x: &[DVec3]) {
+        let n = self.x_ref.len();
+        self.x_ref.copy_from_slice(&x[..n]);
+        self.moved.fill(0.0);
         self.separation.clear();
         self.separation
             .resize(self.candidates.len(), Separation::UNKNOWN);
@@ -894,6 +1354,51 @@ impl CollisionGroup {
         self.part_stacks = stacks;
     }
 
+    /// The contact distance of vertex `i` against face `f` if they form a candidate (their
+    /// boxes are assumed to overlap): not a vertex of the face, objects that collide, not all
+    /// kinematic, and for one object, the rest shape's verdict ([`Self::near_vertex_face`]).
+    #[inline]
+    fn vertex_face_reach(&self, i: usize, f: u32, inv_mass: &[f64]) -> Option<f64> {
+        let (p, po) = (self.verts[i], self.vert_obj[i]);
+        let tri = self.faces[f as usize];
+        let fo = self.face_obj[f as usize];
+        if tri.contains(&p) || !self.objects_may_collide(po, fo) {
+            return None;
+        }
+        if Self::all_kinematic(&[p, tri[0], tri[1], tri[2]], inv_mass) {
+            return None;
+        }
+        let d = self.radius(po) + self.radius(fo);
+        if po == fo {
+            if let Some(reach) = self.near_vertex_face.reach(i, f) {
+                return reach;
+            }
+        }
+        Some(d)
+    }
+
+    /// The contact distance of edges `i < j` if they form a candidate (their boxes are
+    /// assumed to overlap), as [`Self::vertex_face_reach`].
+    #[inline]
+    fn edge_edge_reach(&self, i: usize, j: u32, inv_mass: &[f64]) -> Option<f64> {
+        let (e, eo) = (self.edges[i], self.edge_obj[i]);
+        let f = self.edges[j as usize];
+        let fo = self.edge_obj[j as usize];
+        if f.contains(&e[0]) || f.contains(&e[1]) || !self.objects_may_collide(eo, fo) {
+            return None;
+        }
+        if Self::all_kinematic(&[e[0], e[1], f[0], f[1]], inv_mass) {
+            return None;
+        }
+        let d = self.radius(eo) + self.radius(fo);
+        if eo == fo {
+            if let Some(reach) = self.near_edge_edge.reach(i, j) {
+                return reach;
+            }
+        }
+        Some(d)
+    }
+
     /// The vertex–face candidates of the vertices `verts`, in order, each query's hits sorted
     /// by face.
     fn vertex_face_pairs(
@@ -903,42 +1408,20 @@ impl CollisionGroup {
         stack: &mut Vec<u32>,
         out: &mut Vec<(Candidate, f64)>,
     ) {
-        let rest = &self.rest;
         for i in verts {
-            let p = self.verts[i];
-            let po = self.vert_obj[i];
             let from = out.len();
-            let at_rest = Aabb::of_points(&[rest[p as usize]], 0.0);
             self.face_bvh
                 .query(&self.vert_boxes[i], &self.face_boxes, stack, |f| {
-                    let tri = self.faces[f as usize];
-                    let fo = self.face_obj[f as usize];
-                    if tri.contains(&p) || !self.objects_may_collide(po, fo) {
-                        return;
+                    if let Some(d) = self.vertex_face_reach(i, f, inv_mass) {
+                        let pair = [i as u32, f];
+                        out.push((
+                            Candidate {
+                                kind: PairKind::VertexFace,
+                                pair,
+                            },
+                            d,
+                        ));
                     }
-                    if Self::all_kinematic(&[p, tri[0], tri[1], tri[2]], inv_mass) {
-                        return;
-                    }
-                    let mut d = self.radius(po) + self.radius(fo);
-                    if po == fo {
-                        let gap2 = at_rest.distance_squared(&self.face_rest_boxes[f as usize]);
-                        let exact = || {
-                            let [a, b, c] = tri.map(|k| rest[k as usize]);
-                            distance::point_triangle_closest(rest[p as usize], a, b, c).1
-                        };
-                        match same_object_reach(d, gap2, &exact) {
-                            Some(r) => d = r,
-                            None => return,
-                        }
-                    }
-                    let pair = [i as u32, f];
-                    out.push((
-                        Candidate {
-                            kind: PairKind::VertexFace,
-                            pair,
-                        },
-                        d,
-                    ));
                 });
             sort_by_second(out, from);
         }
@@ -953,56 +1436,26 @@ impl CollisionGroup {
         stack: &mut Vec<u32>,
         out: &mut Vec<(Candidate, f64)>,
     ) {
-        let rest = &self.rest;
         for i in edges {
-            let e = self.edges[i];
-            let eo = self.edge_obj[i];
             let from = out.len();
             self.edge_bvh
                 .query(&self.edge_boxes[i], &self.edge_boxes, stack, |j| {
                     if j as usize <= i {
                         return;
                     }
-                    let f = self.edges[j as usize];
-                    let fo = self.edge_obj[j as usize];
-                    if f.contains(&e[0]) || f.contains(&e[1]) || !self.objects_may_collide(eo, fo) {
-                        return;
+                    if let Some(d) = self.edge_edge_reach(i, j, inv_mass) {
+                        let pair = [i as u32, j];
+                        out.push((
+                            Candidate {
+                                kind: PairKind::EdgeEdge,
+                                pair,
+                            },
+                            d,
+                        ));
                     }
-                    if Self::all_kinematic(&[e[0], e[1], f[0], f[1]], inv_mass) {
-                        return;
-                    }
-                    let mut d = self.radius(eo) + self.radius(fo);
-                    if eo == fo {
-                        let gap2 = self.edge_rest_boxes[i]
-                            .distance_squared(&self.edge_rest_boxes[j as usize]);
-                        let exact = || {
-                            let [a, b] = e.map(|v| rest[v as usize]);
-                            let [c, g] = f.map(|v| rest[v as usize]);
-                            distance::segment_segment_closest(a, b, c, g).2
-                        };
-                        match same_object_reach(d, gap2, &exact) {
-                            Some(r) => d = r,
-                            None => return,
-                        }
-                    }
-                    let pair = [i as u32, j];
-                    out.push((
-                        Candidate {
-                            kind: PairKind::EdgeEdge,
-                            pair,
-                        },
-                        d,
-                    ));
                 });
             sort_by_second(out, from);
         }
-    }
-
-    /// Whether some primitive's tight swept box left the box the candidates were found with.
-    fn escaped(&self, x0: &[DVec3], x: &[DVec3]) -> bool {
-        (0..self.verts.len()).any(|i| !self.vert_boxes[i].contains(&self.vert_box(i, x0, x)))
-            || (0..self.edges.len()).any(|i| !self.edge_boxes[i].contains(&self.edge_box(i, x0, x)))
-            || (0..self.faces.len()).any(|i| !self.face_boxes[i].contains(&self.face_box(i, x0, x)))
     }
 
     /// World boxes of the colliders over the substep (their rest-frame bounds, grown by
@@ -1413,9 +1866,7 @@ impl CollisionGroup {
         team: TeamRef<'_>,
     ) -> usize {
         loop {
-            if self.escaped(x0, x) {
-                self.broad_phase(x0, x, inv_mass, team);
-            }
+            self.refresh_escaped(x0, x, inv_mass, team);
             let mut crossing = 0;
             let mut froze = false;
             self.update_moved(x);
@@ -1636,7 +2087,11 @@ impl ConstraintGroup for CollisionGroup {
         }
         self.frozen_list.clear();
         self.contacts.clear();
-        self.broad_phase(p.x0, p.x, p.inv_mass, team);
+        if !self.colliders_and_masses_hold(p.inv_mass) {
+            self.broad_phase(p.x0, p.x, p.inv_mass, team);
+        } else if !self.refresh_escaped(p.x0, p.x, p.inv_mass, team) {
+            self.restart_passes(p.x);
+        }
         Ok(())
     }
 
@@ -1647,9 +2102,7 @@ impl ConstraintGroup for CollisionGroup {
         let p = ctx.particles();
         self.check_state(p.x.len().min(p.x0.len()).min(p.inv_mass.len()))?;
         let (x0, x, w) = (p.x0, p.x, p.inv_mass);
-        if self.escaped(x0, x) {
-            self.broad_phase(x0, x, w, team);
-        }
+        self.refresh_escaped(x0, x, w, team);
         self.resolve_pass(x0, x, w);
         if last {
             for c in &self.contacts {
@@ -1661,9 +2114,7 @@ impl ConstraintGroup for CollisionGroup {
             }
             // Friction and the sweeps moved particles: the final projections must see every
             // pair near a collider now, not only those of the pass's candidates.
-            if self.escaped(x0, x) {
-                self.broad_phase(x0, x, w, team);
-            }
+            self.refresh_escaped(x0, x, w, team);
             self.project_features_out(x, w);
             self.project_out_of_colliders(x, w);
             let unresolved = self.fail_safe(x0, x, w, team);
@@ -1728,6 +2179,7 @@ impl ConstraintGroup for CollisionGroup {
         out.push(("contacts".into(), s.contacts as f64));
         out.push(("candidates".into(), s.candidates as f64));
         out.push(("broad_phases".into(), s.broad_phases as f64));
+        out.push(("refreshes".into(), s.refreshes as f64));
         out.push(("frozen".into(), s.frozen as f64));
         out.push(("unresolved".into(), s.unresolved as f64));
         out.push(("max_penetration".into(), s.max_penetration));
@@ -1741,4 +2193,184 @@ pub(crate) fn build(
 ) -> Result<Box<dyn ConstraintGroup>, PluginError> {
     let params = CollisionParams::parse(params_json)?;
     Ok(Box::new(CollisionGroup::new(&params, scene)?))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nucleus_sdk::abi_stable::std_types::RSlice;
+    use nucleus_sdk::testing::Rng;
+
+    /// Rest positions, edges and triangles of a mesh.
+    type Mesh = (Vec<[f64; 3]>, Vec<[u32; 2]>, Vec<[u32; 3]>);
+
+    /// A flat `n × n` cloth of side 0.5 m in the plane z = 0, two triangles per quad.
+    fn cloth(n: u32) -> Mesh {
+        let s = 0.5 / (n - 1) as f64;
+        let rest = (0..n * n)
+            .map(|k| [(k % n) as f64 * s, (k / n) as f64 * s, 0.0])
+            .collect();
+        let mut tris = Vec::new();
+        for r in 0..n - 1 {
+            for c in 0..n - 1 {
+                let a = r * n + c;
+                tris.push([a, a + 1, a + n + 1]);
+                tris.push([a, a + n + 1, a + n]);
+            }
+        }
+        let mut edges: Vec<[u32; 2]> = tris
+            .iter()
+            .flat_map(|t| [[t[0], t[1]], [t[1], t[2]], [t[2], t[0]]])
+            .map(|[a, b]| [a.min(b), a.max(b)])
+            .collect();
+        edges.sort_unstable();
+        edges.dedup();
+        (rest, edges, tris)
+    }
+
+    /// Two identical groups over the cloth: self-collision, a sphere and a box (whose corners
+    /// and edges are features).
+    fn groups(rest: &[[f64; 3]], edges: &[[u32; 2]], tris: &[[u32; 3]]) -> [CollisionGroup; 2] {
+        let inv_mass = vec![1.0; rest.len()];
+        let objects = [ObjectView {
+            edges: RSlice::from_slice(edges),
+            triangles: RSlice::from_slice(tris),
+            ..ObjectView::new("cloth", 0, rest.len() as u32)
+        }];
+        let scene = SceneView::new(&objects, &[0], rest, &inv_mass);
+        let infos: Vec<_> = CollisionParams::specs().iter().map(|s| s.info()).collect();
+        let json = nucleus_sdk::params::validate_json(
+            r#"{"thickness": 0.01, "colliders": [
+                {"type": "sphere", "center": [0.25, 0.25, -0.2], "radius": 0.15},
+                {"type": "box", "center": [0.1, 0.1, 0.05], "half_extents": [0.05, 0.05, 0.05]}
+            ]}"#,
+            &infos,
+        )
+        .expect("valid parameters");
+        let params = CollisionParams::parse(&json).expect("params");
+        let make = || CollisionGroup::new(&params, &scene).expect("group");
+        let mut pair = [make(), make()];
+        for g in &mut pair {
+            g.collider_bounds();
+            let features = (g.feat_points.len(), g.feat_edges.len());
+            assert!(features.0 > 0 && features.1 > 0, "the box has features");
+            for (f, &(_, q)) in g.feat_points.clone().iter().enumerate() {
+                g.feat_point_boxes[f] = Aabb::of_points(&[q], 0.0);
+            }
+            for (f, &(_, [a, b])) in g.feat_edges.clone().iter().enumerate() {
+                g.feat_edge_boxes[f] = Aabb::of_points(&[a, b], 0.0);
+            }
+        }
+        pair
+    }
+
+    /// Whether candidate `c`'s primitives can touch now: their tight boxes (swept over the
+    /// substep and grown by their radii, no margin) overlap, or for a collider feature, lie
+    /// within the collider's radius.
+    fn touching(g: &CollisionGroup, c: Candidate, x0: &[DVec3], x: &[DVec3]) -> bool {
+        let [a, b] = c.pair.map(|k| k as usize);
+        let feature = |tight: Aabb, collider: u32, other: Aabb| {
+            let rc = g.collider_radius[collider as usize];
+            tight.distance_squared(&other) <= rc * rc
+        };
+        match c.kind {
+            PairKind::Collider => g.vert_box(b, x0, x).overlaps(&g.collider_boxes[a]),
+            PairKind::VertexFace => g.vert_box(a, x0, x).overlaps(&g.face_box(b, x0, x)),
+            PairKind::EdgeEdge => g.edge_box(a, x0, x).overlaps(&g.edge_box(b, x0, x)),
+            PairKind::FeatureFace => feature(
+                g.feat_point_boxes[a],
+                g.feat_points[a].0,
+                g.face_box(b, x0, x),
+            ),
+            PairKind::FeaturePointEdge => feature(
+                g.feat_point_boxes[a],
+                g.feat_points[a].0,
+                g.edge_box(b, x0, x),
+            ),
+            PairKind::FeatureEdgeEdge => feature(
+                g.feat_edge_boxes[a],
+                g.feat_edges[a].0,
+                g.edge_box(b, x0, x),
+            ),
+            PairKind::VertexVertex | PairKind::VertexEdge => true,
+        }
+    }
+
+    /// After primitives leave their boxes, the partial refresh keeps every pair a full broad
+    /// phase finds that can touch now, with the same contact distance, in sorted order — over
+    /// rounds of random crumpling in which a few or most vertices move. (A full broad phase
+    /// also lists pairs within a fresh margin of each other; the refresh keeps the older
+    /// boxes of the primitives that stayed in theirs, and lists the pairs within those.)
+    #[test]
+    fn a_refresh_keeps_every_pair_a_full_broad_phase_finds() {
+        let (rest, edges, tris) = cloth(14);
+        let [mut partial, mut full] = groups(&rest, &edges, &tris);
+        let inv_mass = vec![1.0; rest.len()];
+        let x0: Vec<DVec3> = rest.iter().map(|&p| DVec3::from(p)).collect();
+        let mut x = x0.clone();
+        let mut rng = Rng(3);
+        partial.broad_phase(&x0, &x, &inv_mass, TeamRef::serial());
+        let (mut refreshed, mut fallbacks) = (0, 0);
+        for round in 0..60 {
+            // A few vertices (or, one round in ten, most) jump by up to 3 cm; the cloth folds.
+            let share = if round % 10 == 9 { 0.6 } else { 0.05 };
+            for p in x.iter_mut() {
+                if rng.next_f64() < share {
+                    *p += rng.vec3(0.03);
+                }
+            }
+            let before = partial.stats;
+            partial.refresh_escaped(&x0, &x, &inv_mass, TeamRef::serial());
+            refreshed += partial.stats.refreshes - before.refreshes;
+            fallbacks += partial.stats.broad_phases - before.broad_phases;
+            full.broad_phase(&x0, &x, &inv_mass, TeamRef::serial());
+            assert!(partial.candidates.windows(2).all(|w| w[0] < w[1]));
+            let mut checked = 0;
+            for (c, d) in full.candidates.iter().zip(&full.reach) {
+                if !touching(&full, *c, &x0, &x) {
+                    continue;
+                }
+                checked += 1;
+                let at = partial.candidates.binary_search(c);
+                let at = at.unwrap_or_else(|_| panic!("round {round}: {c:?} missing"));
+                assert_eq!(
+                    partial.reach[at].to_bits(),
+                    d.to_bits(),
+                    "round {round}: {c:?}"
+                );
+            }
+            assert_eq!(partial.cand_ids.len(), partial.candidates.len());
+            assert!(checked > 0, "round {round}: no pair can touch");
+        }
+        assert!(
+            refreshed > 30 && fallbacks >= 3,
+            "{refreshed} refreshes, {fallbacks} full"
+        );
+        let kinds: Vec<PairKind> = full.candidates.iter().map(|c| c.kind).collect();
+        for kind in [PairKind::VertexFace, PairKind::EdgeEdge, PairKind::Collider] {
+            assert!(
+                kinds.contains(&kind),
+                "no {kind:?} pair: the test would not test it"
+            );
+        }
+    }
+
+    #[test]
+    fn a_changed_mass_or_a_moved_collider_takes_a_full_broad_phase() {
+        let (rest, edges, tris) = cloth(6);
+        let [mut g, _] = groups(&rest, &edges, &tris);
+        let mut inv_mass = vec![1.0; rest.len()];
+        let x: Vec<DVec3> = rest.iter().map(|&p| DVec3::from(p)).collect();
+        assert!(!g.colliders_and_masses_hold(&inv_mass), "nothing found yet");
+        g.broad_phase(&x, &x, &inv_mass, TeamRef::serial());
+        assert!(g.colliders_and_masses_hold(&inv_mass));
+        inv_mass[3] = 0.0;
+        assert!(!g.colliders_and_masses_hold(&inv_mass), "a pinned vertex");
+        inv_mass[3] = 1.0;
+        g.collider_boxes[0] = g.collider_boxes[0].grow(1e-3);
+        assert!(
+            !g.colliders_and_masses_hold(&inv_mass),
+            "a collider left its box"
+        );
+    }
 }

@@ -63,9 +63,18 @@
 //! per substep (`begin_substep`), in sorted order: deterministic. The vertex–face and
 //! edge–edge queries (one per vertex, one per edge) are split over the host's thread team in
 //! contiguous ranges whose hits are joined in order, so the list is the same on any number of
-//! threads. The solve moves positions; before every pass each primitive's tight swept box is
-//! checked against the box its candidates were found with, and the broad phase is run again if
-//! any escaped — the contact set may grow, but no pair is ever skipped.
+//! threads. The solve moves positions; before every pass, and at the start of the next substep,
+//! each primitive's tight swept box is checked against the box its candidates were found with.
+//! Only the primitives that left their boxes get new boxes and look for new pairs (a
+//! *refresh*: a query per vertex, face or edge that left, then a merge into the sorted list);
+//! every other candidate is kept. More than a quarter of the primitives out, a collider out of
+//! its box, or a changed mass (a pin released) takes a full broad phase instead. The contact set
+//! may grow, but no pair is ever skipped: the list holds every pair whose boxes overlap (a
+//! property test checks it against full broad phases over rounds of random crumpling).
+//! A full broad phase would also list the pairs within a fresh margin of a primitive that stayed
+//! in its older box; such a pair can only come within reach by leaving the boxes, and is then
+//! tested from the next pass. The frames were the same bits over 60 frames of `cloth_heap` and
+//! `cloth_on_sphere` (2 threads) and 20 of `soccer_net` and `collision_sweep`.
 //!
 //! Most candidates of a cloth never touch: a flat 64 × 64 sheet has 27,000 edge pairs whose
 //! boxes overlap and none within the thickness. A pass tests a pair the first time in full,
@@ -156,7 +165,7 @@
 //! Residual (m): the deepest thickness violation at the end of the frame over the contacts of
 //! its last substep, the vertices near colliders and the colliders' features near faces and
 //! edges. Reported each frame: `contacts`,
-//! `candidates` (largest per substep), `broad_phases`, `frozen`, `unresolved`,
+//! `candidates` (largest per substep), `broad_phases` (full), `refreshes` (partial), `frozen`, `unresolved`,
 //! `max_penetration` (deepest violation at the end of any substep of the frame, m).
 //!
 //! ## Scheduling defaults
