@@ -611,6 +611,19 @@ impl Scene {
         if !s.gravity.iter().all(|g| g.is_finite()) {
             return Err(self.invalid_near("gravity", "gravity must be finite"));
         }
+        // The prediction x + h v + h² g: a displacement that overflows would be caught only
+        // after the next plugin ran, and blamed on it.
+        let fall = h * h * s.gravity.iter().map(|g| g * g).sum::<f64>().sqrt();
+        if !fall.is_finite() {
+            return Err(self.invalid_near(
+                "frame_rate",
+                format!(
+                    "gravity's displacement over one substep, h²·|g| with h = {h:e} s, \
+                     overflows (frame_rate {:e}, substeps {})",
+                    s.frame_rate, s.substeps
+                ),
+            ));
+        }
         if !(s.damping.is_finite() && s.damping >= 0.0) {
             return Err(self.invalid_near("damping", "damping must be finite and >= 0"));
         }

@@ -1,7 +1,7 @@
 //! Bad scenes get a clear error with `file:line:col`, a non-zero exit, and no output that
 //! claims to be complete: malformed TOML, an unknown field, an unknown kind, a missing OBJ
 //! file, a pin index out of range, NaN or negative mass, zero substeps, a substep length that
-//! under- or overflows.
+//! under- or overflows, a substep so long that gravity overflows in one.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -254,6 +254,18 @@ fn zero_substeps_is_refused() {
         &replace("substeps = 2", "substeps = 0"),
         3,
         "substeps must be at least 1",
+    );
+}
+
+#[test]
+fn a_substep_so_long_that_gravity_overflows_in_one_is_refused() {
+    // h = 1 / (1e-300 × 2) ≈ 5e299 s: h² · 9.81 overflows. It was run, and the infinite
+    // prediction blamed on the first plugin called.
+    assert_error_at(
+        "gravity-overflow",
+        &replace("substeps = 2", "frame_rate = 1e-300\nsubsteps = 2"),
+        3,
+        "gravity's displacement over one substep, h²·|g| with h = 4.99",
     );
 }
 
