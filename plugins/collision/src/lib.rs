@@ -67,7 +67,7 @@
 //! each primitive's tight swept box is checked against the box its candidates were found with.
 //! Only the primitives that left their boxes get new boxes and look for new pairs (a
 //! *refresh*: a query per vertex, face or edge that left, then a merge into the sorted list);
-//! every other candidate is kept. More than a quarter of the primitives out, a collider out of
+//! every other candidate is kept. More than an eighth of the primitives out, a collider out of
 //! its box, or a changed mass (a pin released) takes a full broad phase instead. The contact set
 //! may grow, but no pair is ever skipped: the list holds every pair whose boxes overlap (a
 //! property test checks it against full broad phases over rounds of random crumpling).
