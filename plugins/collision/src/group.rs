@@ -804,17 +804,13 @@ impl CollisionGroup {
     /// sort is needed (checked in debug builds).
     fn broad_phase(&mut self, x0: &[DVec3], x: &[DVec3], inv_mass: &[f64], team: TeamRef<'_>) {
         self.stats.broad_phases += 1;
-        for i in 0..self.verts.len() {
-            let r = self.radius(self.vert_obj[i]);
-            self.vert_boxes[i] = self.vert_box(i, x0, x).grow(margin(r));
-        }
-        for i in 0..self.edges.len() {
-            let r = self.radius(self.edge_obj[i]);
-            self.edge_boxes[i] = self.edge_box(i, x0, x).grow(margin(r));
-        }
-        for i in 0..self.faces.len() {
-            let r = self.radius(self.face_obj[i]);
-            self.face_boxes[i] = self.face_box(i, x0, x).grow(margin(r));
+        for kind in 0..3 {
+            let mut boxes = std::mem::take(self.boxes_and_flags(kind).0);
+            for (i, b) in boxes.iter_mut().enumerate() {
+                let (tight, radius) = self.tight_box(kind, i, x0, x);
+                *b = tight.grow(margin(radius));
+            }
+            *self.boxes_and_flags(kind).0 = boxes;
         }
         self.edge_bvh.refit(&self.edge_boxes);
         self.face_bvh.refit(&self.face_boxes);
@@ -1022,32 +1018,19 @@ impl CollisionGroup {
         team: TeamRef<'_>,
     ) -> bool {
         let mut count = 0;
-        for i in 0..self.verts.len() {
-            let tight = self.vert_box(i, x0, x);
-            let out = !self.vert_boxes[i].contains(&tight);
-            self.escaped_verts[i] = out;
-            if out {
-                self.vert_boxes[i] = tight.grow(margin(self.radius(self.vert_obj[i])));
-                count += 1;
+        for kind in 0..3 {
+            let (b, f) = self.boxes_and_flags(kind);
+            let (mut boxes, mut flags) = (std::mem::take(b), std::mem::take(f));
+            for (i, (b, out)) in boxes.iter_mut().zip(flags.iter_mut()).enumerate() {
+                let (tight, radius) = self.tight_box(kind, i, x0, x);
+                *out = !b.contains(&tight);
+                if *out {
+                    *b = tight.grow(margin(radius));
+                    count += 1;
+                }
             }
-        }
-        for i in 0..self.edges.len() {
-            let tight = self.edge_box(i, x0, x);
-            let out = !self.edge_boxes[i].contains(&tight);
-            self.escaped_edges[i] = out;
-            if out {
-                self.edge_boxes[i] = tight.grow(margin(self.radius(self.edge_obj[i])));
-                count += 1;
-            }
-        }
-        for i in 0..self.faces.len() {
-            let tight = self.face_box(i, x0, x);
-            let out = !self.face_boxes[i].contains(&tight);
-            self.escaped_faces[i] = out;
-            if out {
-                self.face_boxes[i] = tight.grow(margin(self.radius(self.face_obj[i])));
-                count += 1;
-            }
+            let (b, f) = self.boxes_and_flags(kind);
+            (*b, *f) = (boxes, flags);
         }
         let total = self.verts.len() + self.edges.len() + self.faces.len();
         if count == 0 {
@@ -1250,6 +1233,24 @@ impl CollisionGroup {
                     }
                 }
             }
+        }
+    }
+
+    /// The stored boxes and escape marks of the vertices (`kind` 0), edges (1) or faces (2).
+    fn boxes_and_flags(&mut self, kind: usize) -> (&mut Vec<Aabb>, &mut Vec<bool>) {
+        match kind {
+            0 => (&mut self.vert_boxes, &mut self.escaped_verts),
+            1 => (&mut self.edge_boxes, &mut self.escaped_edges),
+            _ => (&mut self.face_boxes, &mut self.escaped_faces),
+        }
+    }
+
+    /// The tight swept box of vertex, edge or face `i` (`kind` 0, 1, 2) and its radius.
+    fn tight_box(&self, kind: usize, i: usize, x0: &[DVec3], x: &[DVec3]) -> (Aabb, f64) {
+        match kind {
+            0 => (self.vert_box(i, x0, x), self.radius(self.vert_obj[i])),
+            1 => (self.edge_box(i, x0, x), self.radius(self.edge_obj[i])),
+            _ => (self.face_box(i, x0, x), self.radius(self.face_obj[i])),
         }
     }
 
