@@ -148,8 +148,9 @@ pub struct CollisionGroup {
     collider_boxes: Vec<Aabb>,
     /// What the candidates were last found with, beyond the primitives' boxes: the colliders'
     /// boxes, the features' boxes and the vertices' inverse masses (empty before the first
-    /// broad phase). A substep whose boxes all lie within these, and whose masses are the same,
-    /// keeps the candidates ([`Self::candidates_hold`]).
+    /// broad phase). A substep whose colliders and features lie within these, and whose masses
+    /// are the same, keeps the candidates of the primitives that stayed in their boxes
+    /// ([`Self::colliders_and_masses_hold`]).
     found_collider_boxes: Vec<Aabb>,
     found_feat_boxes: Vec<Aabb>,
     found_inv_mass: Vec<f64>,
@@ -971,6 +972,21 @@ impl CollisionGroup {
                 sort_by_second(&mut pending, from);
             }
         }
+        self.found_collider_boxes.clone_from(&self.collider_boxes);
+        self.found_feat_boxes.clear();
+        self.found_feat_boxes
+            .extend_from_slice(&self.feat_point_boxes);
+        self.found_feat_boxes
+            .extend_from_slice(&self.feat_edge_boxes);
+        self.found_inv_mass.clear();
+        self.found_inv_mass
+            .extend(self.verts.iter().map(|&p| inv_mass[p as usize]));
+        self.adopt(pending, stack, x);
+    }
+
+    /// Makes `pending` (sorted) the candidates, with their particles, and restarts the passes'
+    /// state; keeps both buffers for the next broad phase.
+    fn adopt(&mut self, pending: Vec<(Candidate, f64)>, stack: Vec<u32>, x: &[DVec3]) {
         debug_assert!(
             pending.windows(2).all(|w| w[0].0 < w[1].0),
             "candidates out of order"
@@ -984,16 +1000,6 @@ impl CollisionGroup {
         self.pending = pending;
         self.stack = stack;
         self.stats.candidates = self.stats.candidates.max(self.candidates.len());
-
-        self.found_collider_boxes.clone_from(&self.collider_boxes);
-        self.found_feat_boxes.clear();
-        self.found_feat_boxes
-            .extend_from_slice(&self.feat_point_boxes);
-        self.found_feat_boxes
-            .extend_from_slice(&self.feat_edge_boxes);
-        self.found_inv_mass.clear();
-        self.found_inv_mass
-            .extend(self.verts.iter().map(|&p| inv_mass[p as usize]));
         self.cand_ids.clear();
         for k in 0..self.candidates.len() {
             let ids = self.candidate_ids(self.candidates[k]);
@@ -1002,12 +1008,13 @@ impl CollisionGroup {
         self.restart_passes(x);
     }
 
-    /// After some primitives left their boxes during the passes: gives only those new boxes
-    /// and finds only their pairs, keeping every other candidate (found with the boxes the
-    /// rest still lie in). Like [`Self::candidates_hold`], the list then holds every pair that
-    /// can touch, and the passes reach the same contacts in the same order as after a full
-    /// broad phase. A full broad phase instead when more than an eighth of the primitives
-    /// left, or the group has unconnected particles (their hash grid is not updated in part).
+    /// After some primitives left their boxes (during the passes, or since the last substep):
+    /// gives only those new boxes and finds only their pairs, keeping every other candidate
+    /// (found with the boxes the rest still lie in). The list then holds every pair whose
+    /// boxes overlap, so every pair that can touch before a primitive leaves its box again. A
+    /// full broad phase instead when more than an eighth of the primitives left
+    /// ([`REFRESH_MAX_SHARE`]), or the group has unconnected particles (their hash grid is not
+    /// updated in part).
     ///
     /// Returns whether the candidates were found again (the passes' state then restarted).
     fn refresh_escaped(
@@ -1113,26 +1120,8 @@ impl CollisionGroup {
             pending.push((c, d));
         }
         pending.extend(next);
-        debug_assert!(
-            pending.windows(2).all(|w| w[0].0 < w[1].0),
-            "candidates out of order"
-        );
-        self.candidates.clear();
-        self.reach.clear();
-        for &(c, d) in &pending {
-            self.candidates.push(c);
-            self.reach.push(d);
-        }
-        self.pending = pending;
         self.fresh = fresh;
-        self.stack = stack;
-        self.stats.candidates = self.stats.candidates.max(self.candidates.len());
-        self.cand_ids.clear();
-        for k in 0..self.candidates.len() {
-            let ids = self.candidate_ids(self.candidates[k]);
-            self.cand_ids.push(ids);
-        }
-        self.restart_passes(x);
+        self.adopt(pending, stack, x);
         true
     }
 
