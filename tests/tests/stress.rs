@@ -660,7 +660,7 @@ fn neighbour_mass_ratio(sim: &mut Simulation, name: &str) -> Result<String, Stri
 /// row (row 0), with stretch, tether, bend, shear and air; `mass_maps` makes some vertices
 /// 1e6 times lighter than their neighbours (regular triangles: the mass ratio alone, no
 /// slivers).
-fn mass_ratio_scene(size: f64, columns: u32, mass_maps: &str) -> String {
+fn mass_ratio_scene(size: f64, columns: u32, mass_maps: &str, blocks: &str) -> String {
     format!(
         r#"
 [solver]
@@ -678,6 +678,7 @@ plane = "xy"
 origin = [0.0, 0.0, 0.0]
 [[constraints]]
 kind = "stretch"
+params = {{ blocks = "{blocks}" }}
 [[constraints]]
 kind = "tether"
 [[constraints]]
@@ -697,7 +698,7 @@ fn a_cloth_with_a_free_edge_1e6_times_lighter_swings_without_gaining_energy() {
     check(
         Case::new(
             "mass ratio 1:1e6 between neighbours, light free edge (stretch, tether, bend, shear, air)",
-            mass_ratio_scene(0.3, 4, r#"{ vertices = ["edge:rowN"], scale = 1e-6 }"#),
+            mass_ratio_scene(0.3, 4, r#"{ vertices = ["edge:rowN"], scale = 1e-6 }"#, "edges"),
             Energy::Conserved { from_frame: 0 },
             Speed::Energy,
         )
@@ -705,10 +706,10 @@ fn a_cloth_with_a_free_edge_1e6_times_lighter_swings_without_gaining_energy() {
     );
 }
 
-/// Edge-by-edge passes tore this cloth (stretch alone ended at strain 175, 4 km/s; with
-/// tethers at 0.45 and 38 %/s of energy growth): each pass moved the light vertex, almost never
-/// the heavy one behind it. `stretch`'s default `blocks = "auto"` solves the star of every
-/// vertex 10 times lighter than a neighbour at once (`nucleus_stretch::star`).
+/// Edge-by-edge passes tear this cloth (stretch alone ended at strain 175, 4 km/s; with
+/// tethers at 0.45 and 38 %/s of energy growth): each pass moves the light vertex, almost never
+/// the heavy one behind it. `stretch` with `blocks = "stars"` solves all the edges at each
+/// vertex at once (`nucleus_stretch::star`).
 #[test]
 fn a_cloth_carried_through_vertices_1e6_times_lighter_never_gains_energy() {
     // Columns at x = 0.3 and 0.6 m of a 0.9 m strip: the load between the pinned corners
@@ -722,17 +723,66 @@ fn a_cloth_carried_through_vertices_1e6_times_lighter_never_gains_energy() {
     };
     check(
         Case::new(
-            "mass ratio 1:1e6 between neighbours, load through light columns (stretch, tether, bend, shear, air)",
+            "mass ratio 1:1e6 between neighbours, load through light columns (stretch with stars, tether, bend, shear, air)",
             mass_ratio_scene(
                 0.9,
                 10,
                 &format!("{{ vertices = [{}, {}], scale = 1e-6 }}", light(0.3), light(0.6)),
+                "stars",
             ),
             Energy::Conserved { from_frame: 0 },
             Speed::Energy,
         )
         .last(|sim| neighbour_mass_ratio(sim, "cloth")),
     );
+}
+
+/// A 1 m curtain of 32 × 32 vertices hung by its top row from above its pins, its bottom row
+/// 1,000 times heavier (a weighted hem): it swings down 2 m and the tethers catch the hem.
+const WEIGHTED_HEM: &str = r#"
+[solver]
+frames = 120
+substeps = 10
+[[objects]]
+name = "curtain"
+mass = 0.2
+pins = ["edge:row0"]
+mass_maps = [{ vertices = ["edge:rowN"], scale = 1000.0 }]
+[objects.grid]
+size = [1.0, 1.0]
+resolution = [32, 32]
+plane = "xy"
+origin = [0.0, 0.0, 0.0]
+[[constraints]]
+kind = "stretch"
+params = { blocks = "BLOCKS" }
+[[constraints]]
+kind = "tether"
+"#;
+
+fn weighted_hem(blocks: &'static str) -> Case {
+    let name = match blocks {
+        "stars" => "mass ratio 1:1e3, a weighted hem falls 2 m and is caught by tethers (stretch with stars, tether)",
+        _ => "mass ratio 1:1e3, a weighted hem falls 2 m and is caught by tethers (stretch, tether)",
+    };
+    Case::new(
+        name,
+        WEIGHTED_HEM.replace("BLOCKS", blocks),
+        Energy::Conserved { from_frame: 0 },
+        Speed::Energy,
+    )
+    .last(|sim| residual_figure(sim, "stretch"))
+}
+
+#[test]
+fn a_weighted_hem_caught_by_tethers_never_gains_energy() {
+    check(weighted_hem("edges"));
+}
+
+#[test]
+#[ignore = "fails: solved a star at a time, the curtain gains 1.4 %/s of the 214 J in play when the tethers catch the hem (max speed 70 m/s; edge by edge 0 %/s and 31 m/s). A star's step is one Newton step on its linearised edges, which overshoots where the edges turn fast; the trust region and line search bound it but do not make it dissipative. With the edges' start directions (as the edge step uses) the star's system was not symmetric and ~25 J stayed in motion; along the current directions the curtain settles, but not within 1 %/s"]
+fn a_weighted_hem_caught_by_tethers_with_stars_never_gains_energy() {
+    check(weighted_hem("stars"));
 }
 
 /// A 0.5 m cloth of 10 × 10 vertices of 1 g each lying on the ground, and a 1,000 kg particle

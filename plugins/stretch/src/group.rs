@@ -35,10 +35,9 @@ pub struct StretchParams {
     pub chebyshev_delay: i64,
     /// Under-relaxation `γ` of the accelerated passes (dimensionless, in (0, 1]). Default 1.
     pub chebyshev_gamma: f64,
-    /// How a pass solves the edges ([`Blocks`]): `"auto"` (default), all the edges at a
-    /// particle at once ([`crate::star`]) where the particle is at least 10 times lighter than a
-    /// dynamic neighbour, one edge after another everywhere else; `"edges"`, one after another
-    /// everywhere; `"stars"`, a star at every particle (several times the work of a pass).
+    /// How a pass solves the edges ([`Blocks`]): `"edges"` (default), one after another;
+    /// `"stars"`, all the edges at each particle at once ([`crate::star`]): ten times the work
+    /// of a pass, for loads carried through particles far lighter than their neighbours.
     pub blocks: String,
 }
 
@@ -49,10 +48,6 @@ pub enum Blocks {
     Edges,
     /// All the edges at a particle at once ([`crate::star::StarGroup`]).
     Stars,
-    /// Stars only at the particles at least [`crate::star::STAR_MASS_RATIO`] times lighter than
-    /// a dynamic neighbour, every other edge one after another; exactly `Edges` (the same bits)
-    /// when there is no such particle.
-    Auto,
 }
 
 impl Default for StretchParams {
@@ -65,7 +60,7 @@ impl Default for StretchParams {
             chebyshev_rho: 0.0,
             chebyshev_delay: 2,
             chebyshev_gamma: 1.0,
-            blocks: "auto".into(),
+            blocks: "edges".into(),
         }
     }
 }
@@ -100,7 +95,7 @@ impl StretchParams {
                 .doc("under-relaxation of the accelerated passes")
                 .range(1e-3, 1.0),
             ParamSpec::text("blocks", &d.blocks)
-                .doc("how a pass solves the edges: \"auto\", all the edges at a particle at once where it is at least 10 times lighter than a dynamic neighbour (where one edge after another stalls) and one edge after another elsewhere; \"edges\", one after another everywhere; \"stars\", all the edges at every particle at once (several times the work)"),
+                .doc("how a pass solves the edges: \"edges\", one after another, or \"stars\", all the edges at each particle at once (ten times the work of a pass; converges where loads pass through particles far lighter than their neighbours, which stalls edge passes)"),
         ]
     }
 
@@ -115,10 +110,9 @@ impl StretchParams {
         match self.blocks.as_str() {
             "edges" => Ok(Blocks::Edges),
             "stars" => Ok(Blocks::Stars),
-            "auto" => Ok(Blocks::Auto),
             other => Err(PluginError::bad_parameter(
                 "blocks",
-                format!("\"{other}\" is not one of \"auto\", \"edges\", \"stars\""),
+                format!("\"{other}\" is not one of \"edges\", \"stars\""),
             )),
         }
     }
@@ -538,13 +532,9 @@ pub(crate) fn build(
     scene: &SceneView<'_>,
 ) -> Result<Box<dyn ConstraintGroup>, PluginError> {
     let params: StretchParams = params::parse(params_json)?;
-    let edges = Edges::collect(&params, scene)?;
-    let blocks = params.blocks()?;
-    let centres = crate::star::centres(&edges, scene.inv_mass.as_slice(), blocks);
-    Ok(if centres.is_empty() {
-        Box::new(StretchGroup::from_edges(&params, edges))
-    } else {
-        Box::new(crate::star::StarGroup::from_edges(&params, edges, &centres))
+    Ok(match params.blocks()? {
+        Blocks::Edges => Box::new(StretchGroup::new(&params, scene)?),
+        Blocks::Stars => Box::new(crate::star::StarGroup::new(&params, scene)?),
     })
 }
 

@@ -15,9 +15,8 @@
 //! ## The step
 //!
 //! For the star of particle `c` (inverse mass `w_c > 0`) with spokes `e = (c, k)`: the constraint
-//! `C_e = |x_k − x_c| − l_e`, its current direction `n_e`, its correction direction `û_e` (the
-//! start-of-substep direction, as in [`crate::distance::project_distance`]; `cos_e = n_e·û_e`)
-//! and the corrections
+//! `C_e = |x_k − x_c| − l_e`, its current direction `n_e`, and the corrections along it (written
+//! `û_e`, with `cos_e = n_e·û_e = 1`, for the general form)
 //!
 //! ```text
 //! Δx_k = w_k û_e Δλ_e,    Δx_c = −w_c U,    U = Σ_e û_e Δλ_e
@@ -40,17 +39,25 @@
 //! `d × d` factorisation. For one spoke it is exactly the edge's XPBD step. A spoke to a pinned
 //! particle with a hard material has `Λ_e = 0` (the centre alone must satisfy it): `Λ_e` is
 //! floored at [`LAMBDA_FLOOR`]` · w_c`, which makes that spoke hold to a relative 10⁻⁹.
-//! Every correction runs along the spokes' start directions, equal and opposite at the two
-//! ends, so linear and angular momentum are conserved as by the edge step.
+//! Every correction runs along a spoke, equal and opposite at its two ends (weighted by the
+//! inverse masses), so linear momentum is conserved exactly.
+//!
+//! **Directions.** The edge step corrects along the edge's direction at the start of the
+//! substep (SHAKE; it conserves angular momentum exactly too). A star does not: with start
+//! directions its system `N W Ûᵀ` is not symmetric, block Gauss-Seidel on it is no longer a
+//! descent, and a curtain whose heavy hem was caught by tethers kept ~25 J in motion that edge
+//! passes let settle. Along the current directions the system is `J W Jᵀ`, symmetric. The price
+//! is angular momentum conserved only up to the edges' turn within the substep.
 //!
 //! **Trust region.** Where the star is nearly degenerate the linearisation lies: a particle
 //! on the straight line between two pins its hard spokes' rest lengths apart (a taut string)
 //! can, to first order, relieve a small stretch by moving *across* the line, and the Newton step
 //! moved it centimetres for a stretch of 10⁻⁴ m, pumping energy into a hanging cloth (300 J in
 //! a 3 × 3 test that holds 70). So no particle moves farther than one sweep of edge steps could
-//! move it, `Σₑ |rₑ(1 + γₑ)| / 0.9` (0.9 is the smallest `cos_e` the start direction allows):
-//! a longer step is scaled down as a whole, which keeps its momentum balance. A single spoke
-//! is never scaled, so it stays exactly the edge step.
+//! move it, `Σₑ |rₑ(1 + γₑ)|`: a longer step is scaled down as a whole, which keeps its momentum
+//! balance. A single spoke is never scaled, so it stays exactly the edge step along `n`. Then
+//! the step is halved (at most [`LINE_SEARCH_HALVINGS`] times, else dropped) until the star's
+//! `Σ (C + α̃λ)²` is no larger than before it.
 //!
 //! ## The pass
 //!
@@ -67,12 +74,8 @@ use nucleus_sdk::prelude::*;
 use nucleus_sdk::team::{span, SharedArray};
 
 use crate::chebyshev::Chebyshev;
-use crate::distance::{
-    correction_direction, EdgeMaterial, XpbdTerms, MIN_LENGTH, START_DIRECTION_MIN_COS,
-};
-use crate::group::{
-    edge_residual, Blocks, Edges, StretchGroup, StretchParams, OVERFLOW_COLOUR, PARALLEL_MIN_EDGES,
-};
+use crate::distance::{EdgeMaterial, XpbdTerms, MIN_LENGTH};
+use crate::group::{edge_residual, Edges, StretchParams, OVERFLOW_COLOUR, PARALLEL_MIN_EDGES};
 
 /// A star's spokes are solved together in chunks of at most this many (a stack buffer).
 pub const MAX_SPOKES: usize = 32;
@@ -157,10 +160,11 @@ pub fn project_star(
         if !len.is_finite() || len < MIN_LENGTH || s.w.is_nan() || s.w < 0.0 {
             continue;
         }
-        let (u, du, u_len) = correction_direction(d, len, [x0c, s.x0]);
+        // Along the current direction, not the start direction the edge step takes: with it
+        // the star's system is not symmetric, and the block steps pumped energy into a heavy
+        // hem caught by tethers (see the module docs).
         let n = d / len;
-        let u = u / u_len;
-        let cos = du / (len * u_len);
+        let (u, cos) = (n, 1.0);
         let c = len - s.rest;
         let side = usize::from(c < 0.0);
         let (alpha_tilde, gamma) = (terms.alpha_tilde[side], terms.gamma[side]);
@@ -208,7 +212,7 @@ pub fn project_star(
     // The step, scaled into the trust region, then halved until the star's constraints are
     // no more violated than before it (at most `LINE_SEARCH_HALVINGS` times, else no step).
     let dxc = -wc * big_u;
-    let mut scale = (reach / START_DIRECTION_MIN_COS / farthest).min(1.0);
+    let mut scale = (reach / farthest).min(1.0);
     let before: f64 = spokes
         .iter()
         .filter(|s| s.big_lambda > 0.0)
@@ -282,8 +286,7 @@ pub fn solve3(m: DMat3, b: DVec3) -> Option<DVec3> {
     u.is_finite().then_some(u)
 }
 
-/// A `stretch` group solved a star at a time where `blocks` asks for stars (`"stars"`, or
-/// `"auto"` with particles much lighter than a neighbour): the same constraints as
+/// A `stretch` group solved a star at a time (`blocks = "stars"`): the same constraints as
 /// [`crate::StretchGroup`], the same residual, another pass.
 #[derive(Clone, Debug)]
 pub struct StarGroup {
@@ -313,34 +316,14 @@ pub struct StarGroup {
     batches: Vec<(std::ops::Range<usize>, bool)>,
     /// The Chebyshev acceleration of the passes, when `chebyshev_rho > 0`.
     chebyshev: Option<Chebyshev>,
-    /// The edges at no star's centre, solved one after another before the stars.
-    inner: Option<StretchGroup>,
 }
 
-/// A particle at least this many times lighter than one of its dynamic neighbours is a star's
-/// centre under `blocks = "auto"`. Edge-by-edge passes move such a particle instead of the
-/// heavy neighbours behind it, and converge as `1 − m_light/m_heavy` per pass.
-pub const STAR_MASS_RATIO: f64 = 10.0;
-
-/// The centres of the stars `blocks` asks for over `edges`, in the particles' order:
-/// none for [`Blocks::Edges`]; every particle with `w > 0` and an edge for [`Blocks::Stars`];
-/// for [`Blocks::Auto`], the particles with an edge to a dynamic particle at least
-/// [`STAR_MASS_RATIO`] times heavier.
-pub(crate) fn centres(edges: &Edges, inv_mass: &[f64], blocks: Blocks) -> Vec<u32> {
+/// The centres of the stars over `edges`: every particle with `w > 0` and an edge, in order.
+pub(crate) fn centres(edges: &Edges, inv_mass: &[f64]) -> Vec<u32> {
     let mut centre = vec![false; edges.particles];
     for &[i, j] in &edges.ids {
-        let (wi, wj) = (inv_mass[i as usize], inv_mass[j as usize]);
-        match blocks {
-            Blocks::Edges => {}
-            Blocks::Stars => {
-                centre[i as usize] |= wi > 0.0;
-                centre[j as usize] |= wj > 0.0;
-            }
-            Blocks::Auto => {
-                centre[i as usize] |= wj > 0.0 && wi >= STAR_MASS_RATIO * wj;
-                centre[j as usize] |= wi > 0.0 && wj >= STAR_MASS_RATIO * wi;
-            }
-        }
+        centre[i as usize] |= inv_mass[i as usize] > 0.0;
+        centre[j as usize] |= inv_mass[j as usize] > 0.0;
     }
     (0..edges.particles as u32)
         .filter(|&p| centre[p as usize])
@@ -352,14 +335,13 @@ impl StarGroup {
     /// [`crate::StretchGroup::new`]): a star at every particle with `w > 0` and an edge.
     pub fn new(params: &StretchParams, scene: &SceneView<'_>) -> Result<Self, PluginError> {
         let edges = Edges::collect(params, scene)?;
-        let centres = centres(&edges, scene.inv_mass.as_slice(), Blocks::Stars);
+        let centres = centres(&edges, scene.inv_mass.as_slice());
         Ok(Self::from_edges(params, edges, &centres))
     }
 
-    /// Stars at `centres` (particles with `w > 0`, in increasing order) over `edges`; the
-    /// edges at no centre are solved one after another by an inner [`StretchGroup`] before the
-    /// stars in each pass. The stars are coloured so that those of one colour write no common
-    /// particle, and listed colour by colour in the centres' order.
+    /// Stars at `centres` (particles with `w > 0`, in increasing order; [`centres`] gives every
+    /// one with an edge) over `edges`. The stars are coloured so that those of one colour write
+    /// no common particle, and listed colour by colour in the centres' order.
     pub(crate) fn from_edges(params: &StretchParams, edges: Edges, centres: &[u32]) -> Self {
         let particles = edges.particles;
         let mut is_centre = vec![false; particles];
@@ -381,18 +363,7 @@ impl StarGroup {
         let mut fill = start.clone();
         let spokes = start[particles] as usize;
         let (mut spoke_other, mut spoke_edge) = (vec![0u32; spokes], vec![0u32; spokes]);
-        let mut rest_edges = Edges {
-            ids: Vec::new(),
-            rest: Vec::new(),
-            max_index: None,
-            particles,
-        };
         for (e, &[i, j]) in edges.ids.iter().enumerate() {
-            if !is_centre[i as usize] && !is_centre[j as usize] {
-                rest_edges.ids.push([i, j]);
-                rest_edges.rest.push(edges.rest[e]);
-                rest_edges.max_index = rest_edges.max_index.max(Some(i.max(j)));
-            }
             for (a, b) in [(i, j), (j, i)] {
                 if is_centre[a as usize] {
                     let slot = fill[a as usize] as usize;
@@ -423,13 +394,6 @@ impl StarGroup {
             .collect();
         let mut order: Vec<usize> = (0..centres.len()).collect();
         order.sort_by_key(|&s| colours[s]); // stable: the centres' order within a colour
-        let inner = (!rest_edges.ids.is_empty()).then(|| {
-            let plain = StretchParams {
-                chebyshev_rho: 0.0,
-                ..params.clone()
-            };
-            StretchGroup::from_edges(&plain, rest_edges)
-        });
         let hard = params.is_hard();
         let mut group = StarGroup {
             lambda: if hard {
@@ -448,7 +412,6 @@ impl StarGroup {
             other: Vec::with_capacity(spokes),
             edge: Vec::with_capacity(spokes),
             batches: Vec::new(),
-            inner,
         };
         for &s in &order {
             let c = centres[s] as usize;
@@ -465,11 +428,6 @@ impl StarGroup {
             begin = end;
         }
         group
-    }
-
-    /// The number of edges solved one after another, at no star's centre.
-    pub fn edges_outside_stars(&self) -> usize {
-        self.inner.as_ref().map_or(0, |g| g.ids().len())
     }
 
     /// The number of stars (particles with `w > 0` and at least one edge).
@@ -559,12 +517,7 @@ impl ConstraintGroup for StarGroup {
         self.ids.len()
     }
 
-    fn begin_substep(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
-        if let Some(inner) = self.inner.as_mut() {
-            if inner.stages().contains(Stages::BEGIN_SUBSTEP) {
-                inner.begin_substep(ctx)?;
-            }
-        }
+    fn begin_substep(&mut self, _ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
         self.lambda.fill(0.0);
         if let Some(c) = self.chebyshev.as_mut() {
             c.begin_substep();
@@ -581,9 +534,6 @@ impl ConstraintGroup for StarGroup {
         ctx.check_holds(self.max_index)?;
         if let Some(c) = self.chebyshev.as_mut() {
             c.before_pass(ctx.particles().x);
-        }
-        if let Some(inner) = self.inner.as_mut() {
-            inner.project(ctx)?;
         }
         let p = ctx.particles();
         let (x0, w) = (p.x0, p.inv_mass);
@@ -631,7 +581,7 @@ impl ConstraintGroup for StarGroup {
 mod tests {
     use super::*;
     use crate::distance::{project_distance, EdgeMaterial};
-    use crate::group::{Blocks, Edges, StretchParams};
+    use crate::group::{Edges, StretchParams};
     use nucleus_sdk::testing::Rng;
 
     const H: f64 = 1.0 / 240.0;
@@ -646,12 +596,16 @@ mod tests {
 
     #[test]
     fn a_star_of_one_spoke_is_the_edge_step() {
+        // The edge step runs along the start direction, the star along the current one: the
+        // two agree when the edge has not turned within the substep (it may have moved and
+        // changed length, which the damping sees).
         let mut rng = Rng(7);
         for case in 0..500 {
             let xc = rng.vec3(1.0);
             let xk = xc + rng.vec3(0.3);
-            let x0c = xc + rng.vec3(0.02);
-            let x0k = xk + rng.vec3(0.02);
+            let shift = rng.vec3(0.02);
+            let x0c = xc + shift;
+            let x0k = xc + shift + (xk - xc) * rng.range(0.9, 1.1);
             let (wc, wk) = (rng.range(0.1, 5.0), rng.range(0.0, 5.0));
             let rest = rng.range(0.05, 0.4);
             let lambda = rng.range(-1e-4, 1e-4);
@@ -787,8 +741,9 @@ mod tests {
     }
 
     /// A real star of the 3 × 3 drape whose diagonal runs to a pin: the floored spoke makes the
-    /// 3 × 3 system's entries ~10⁹. The expected correction is the dense least-squares
-    /// solution of the star's 6 × 6 linearised system (numpy, independent of this code).
+    /// 3 × 3 system's entries ~10⁹. The expected correction is the solution of the star's
+    /// 6 × 6 linearised system `(diag(max(w_k, 10⁻⁹ w_c)) + w_c N Nᵀ) Δλ = −C` (numpy,
+    /// independent of this code).
     /// Cofactor inversion lost every digit here (Δx_c = (−0.012, 0.005, −0.046)) and the
     /// cloth blew up.
     #[test]
@@ -882,7 +837,7 @@ mod tests {
             .collect();
         let terms = EdgeMaterial::HARD.terms(1.0 / 600.0);
         let dxc = project_star(DVec3::ZERO, DVec3::ZERO, 1.0, &mut spokes, &terms);
-        let expected = v(0.0010502991432, 0.0006883200976, -0.0011549975873);
+        let expected = v(0.0010501655157, 0.0006742478600, -0.0011774129139);
         assert!((dxc - expected).length() < 1e-9, "{dxc:?}");
         // One Newton step leaves only second-order violations (the largest was 1.6e-3).
         for s in &spokes {
@@ -932,17 +887,10 @@ mod tests {
     }
 
     #[test]
-    fn auto_centres_stars_only_at_particles_ten_times_lighter_than_a_dynamic_neighbour() {
-        // A chain 0 - 1 - 2 - 3 - 4: 1 is 10× lighter than 0, 3 is 9× lighter than 2 and 4,
-        // 4 is pinned.
-        let ids = [[0, 1], [1, 2], [2, 3], [3, 4]];
-        let w = [1.0, 10.0, 1.0, 9.0, 0.0];
-        let edges = edges_of(&ids, 5);
-        assert_eq!(centres(&edges, &w, Blocks::Auto), vec![1]);
-        assert_eq!(centres(&edges, &w, Blocks::Stars), vec![0, 1, 2, 3]);
-        assert!(centres(&edges, &w, Blocks::Edges).is_empty());
-        // Next to a pin alone a light particle needs no star: the edge step moves it fully.
-        assert!(centres(&edges_of(&[[0, 1]], 2), &[1e6, 0.0], Blocks::Auto).is_empty());
+    fn every_dynamic_particle_with_an_edge_is_a_centre() {
+        // A chain 0 - 1 - 2 - 3, 3 pinned, and a lone particle 4.
+        let edges = edges_of(&[[0, 1], [1, 2], [2, 3]], 5);
+        assert_eq!(centres(&edges, &[1.0, 1e6, 1.0, 0.0, 1.0]), vec![0, 1, 2]);
     }
 
     #[test]
@@ -966,10 +914,9 @@ mod tests {
         }
         let edges = edges_of(&ids, (n * n) as usize);
         let w = vec![1.0; (n * n) as usize];
-        let centres = centres(&edges, &w, Blocks::Stars);
+        let centres = centres(&edges, &w);
         let group = StarGroup::from_edges(&StretchParams::default(), edges, &centres);
         assert_eq!(group.stars(), 36);
-        assert_eq!(group.edges_outside_stars(), 0);
         let written = |s: usize| {
             let spokes = group.first[s] as usize..group.first[s + 1] as usize;
             let mut p: Vec<u32> = group.other[spokes].to_vec();

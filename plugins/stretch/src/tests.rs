@@ -643,18 +643,27 @@ fn energy(state: &State, mesh: &Mesh) -> f64 {
 #[test]
 fn stars_take_the_residual_of_a_stretched_grid_down_with_passes() {
     let mesh = Mesh::grid(2, 1.0);
-    let mut group = mesh.group(r#"{"blocks": "stars"}"#).expect("group");
-    let mut state = State::new(&mesh, stretched(&mesh, 1.3));
-    let before = state.residual(&group);
-    for _ in 0..30 {
-        group
-            .project(&mut state.ctx())
-            .into_result()
-            .expect("project");
-    }
-    let after = state.residual(&group);
-    assert!(after.max < 1e-3 * before.max, "{after:?} from {before:?}");
-    assert!(state.all_finite());
+    let after = |params: &str| {
+        let mut group = mesh.group(params).expect("group");
+        let mut state = State::new(&mesh, stretched(&mesh, 1.3));
+        for _ in 0..30 {
+            group
+                .project(&mut state.ctx())
+                .into_result()
+                .expect("project");
+        }
+        assert!(state.all_finite());
+        state.residual(&group).max
+    };
+    let before =
+        State::new(&mesh, stretched(&mesh, 1.3)).residual(&mesh.group("{}").expect("group"));
+    // 30 passes take off > 99.5 %, as many as edge passes do on this small grid.
+    let (edges, stars) = (after("{}"), after(r#"{"blocks": "stars"}"#));
+    assert!(stars < 5e-3 * before.max, "{stars} from {}", before.max);
+    assert!(
+        stars < 1.1 * edges,
+        "30 star passes {stars}, 30 edge passes {edges}"
+    );
 }
 
 #[test]
@@ -690,10 +699,10 @@ fn a_pinned_cloth_solved_by_stars_swings_without_gaining_energy() {
 }
 
 #[test]
-fn a_load_through_a_light_particle_stalls_edges_and_auto_solves_it() {
+fn a_load_through_a_light_particle_stalls_edges_and_stars_solve_it() {
     // heavy – light – heavy on a line, both edges stretched by 1 %, the light one 10⁶ times
     // lighter. Edge by edge, 20 passes move the light particle back and forth and leave the
-    // strain; `auto` (the default) puts a star at the light particle and closes both edges.
+    // strain; a star at the light particle closes both edges.
     let mut mesh = Mesh::pair([0.0; 3], [1.0, 0.0, 0.0]);
     mesh.rest.push([2.0, 0.0, 0.0]);
     mesh.inv_mass = vec![1.0, 1e6, 1.0];
@@ -711,12 +720,11 @@ fn a_load_through_a_light_particle_stalls_edges_and_auto_solves_it() {
         state.residual(&group).max
     };
     assert!(strain_after(r#"{"blocks": "edges"}"#) > 0.009);
-    assert!(strain_after("{}") < 1e-9);
     assert!(strain_after(r#"{"blocks": "stars"}"#) < 1e-9);
 }
 
 #[test]
-fn auto_without_light_particles_is_the_edge_pass_to_the_bit() {
+fn the_default_is_the_edge_pass_to_the_bit() {
     let mesh = Mesh::grid(4, 1.0);
     let run = |params: &str| {
         let mut group = mesh.group(params).expect("group");
@@ -739,5 +747,5 @@ fn auto_without_light_particles_is_the_edge_pass_to_the_bit() {
 fn an_unknown_blocks_value_is_rejected_naming_it() {
     let e = bad_parameter(&Mesh::grid(1, 1.0), r#"{"blocks": "triangles"}"#);
     assert!(e.to_string().contains("blocks"), "{e}");
-    assert!(e.to_string().contains("auto"), "{e}");
+    assert!(e.to_string().contains("stars"), "{e}");
 }
