@@ -132,25 +132,24 @@
 //! particle, almost never the heavy ones behind it (one pass closes about `m_light/m_heavy` of
 //! the gap). The stress suite's cloth carried through columns 10⁶ times lighter tears under
 //! edge passes (max strain 39 %, energy +38 %/s with tethers) and holds with stars (max strain
-//! 0.39 %, +0.15 %/s; `docs/stress.md`).
+//! 0.40 %, +0.21 %/s; `docs/stress.md`).
 //!
-//! Stars are not the default, for two measured reasons. They do not pay on uniform cloth: on
-//! the 64 × 64 drape (2 threads, hard stretch, the peers' metrics), at 20 / 40 / 80 substeps of
-//! one pass,
+//! Stars are not the default: they do not pay on uniform cloth. On the 64 × 64 drape (2
+//! threads, hard stretch, the peers' metrics), at 20 / 40 / 80 substeps of one pass,
 //!
 //! | blocks | ms/frame | max strain | RMS strain |
 //! |---|---|---|---|
 //! | `edges` | 1.57 / 3.14 / 6.17 | 71.8 / 25.4 / 7.9 % | 4.07 / 1.34 / 0.43 % |
-//! | `stars` | 13.4 / 26.7 / 53.4 | 26.6 / 8.2 / 2.9 % | 1.61 / 0.50 / 0.18 % |
+//! | `stars` | 13.4 / 27.0 / 56.4 | 28.2 / 8.6 / 3.1 % | 1.63 / 0.50 / 0.18 % |
 //!
 //! a star pass takes about as much strain off as two edge passes, at nine times the cost (each
 //! edge is solved twice, and a star's step costs far more than the edge kernel's one square
-//! root and one division). And a Newton step overshoots where the edges turn fast: a curtain
-//! whose 1,000-times-heavier hem falls 2 m and is caught by tethers gains 1.4 %/s of its energy
-//! with stars and none edge by edge (the stress suite's weighted-hem cases). Tried and not
+//! root and one division). In a violent catch (a curtain whose 1,000-times-heavier hem falls
+//! 2 m onto its tethers; the stress suite's weighted-hem pair) stars hold the energy (+0.07 %/s)
+//! but leave the curtain looser than edge passes (max strain 98 % against 40 %). Tried and not
 //! kept: stars only at the particles 10 times lighter than a neighbour, edges elsewhere — it
-//! passed the light-column case but the weighted hem exploded (strain 1,200 %), stars everywhere
-//! did not; the cause was not found.
+//! passed the light-column case but the weighted hem exploded (strain 1,200 %, with the earlier,
+//! wider trust region), where stars everywhere did not; the cause was not found.
 //!
 //! ## Chebyshev acceleration (optional)
 //!

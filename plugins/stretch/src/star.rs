@@ -53,11 +53,13 @@
 //! on the straight line between two pins its hard spokes' rest lengths apart (a taut string)
 //! can, to first order, relieve a small stretch by moving *across* the line, and the Newton step
 //! moved it centimetres for a stretch of 10⁻⁴ m, pumping energy into a hanging cloth (300 J in
-//! a 3 × 3 test that holds 70). So no particle moves farther than one sweep of edge steps could
-//! move it, `Σₑ |rₑ(1 + γₑ)|`: a longer step is scaled down as a whole, which keeps its momentum
+//! a 3 × 3 test that holds 70). So no particle moves farther than one edge step could move it,
+//! `maxₑ |rₑ(1 + γₑ)|`: a longer step is scaled down as a whole, which keeps its momentum
 //! balance. A single spoke is never scaled, so it stays exactly the edge step along `n`. Then
 //! the step is halved (at most [`LINE_SEARCH_HALVINGS`] times, else dropped) until the star's
-//! `Σ (C + α̃λ)²` is no larger than before it.
+//! `Σ (C + α̃λ)²` is no larger than before it. With the sum `Σₑ |rₑ(1 + γₑ)|` as the bound
+//! instead of the largest, a curtain whose 1,000-times-heavier hem is caught by tethers gained
+//! 1.4 %/s of its energy (max speed 70 m/s); with the largest, 0.07 %/s (59 m/s).
 //!
 //! ## The pass
 //!
@@ -152,8 +154,8 @@ pub fn project_star(
     let mut m = DMat3::IDENTITY;
     let mut b = DVec3::ZERO;
     let mut any = false;
-    // The trust region: Σ |rₑ| / cos_min, what one sweep of edge steps could move a particle.
-    let mut reach = 0.0;
+    // The trust region: the largest |rₑ|, what one edge step could move a particle.
+    let mut reach: f64 = 0.0;
     for s in spokes.iter_mut() {
         let d = s.x - xc;
         let len = d.length();
@@ -182,7 +184,7 @@ pub fn project_star(
         s.r = r / (1.0 + gamma);
         s.g = c + alpha_tilde * s.lambda;
         s.alpha_tilde = alpha_tilde;
-        reach += r.abs();
+        reach = f64::max(reach, r.abs());
         // M += w_c û nᵀ / Λ (columns: û scaled by the components of n).
         let f = wc / big_lambda;
         m.x_axis += u * (f * n.x);
@@ -670,7 +672,7 @@ mod tests {
             }
             whole += usize::from(left.is_some_and(|l: f64| l.abs() <= 1e-9));
         }
-        assert!(whole > 200, "only {whole} of 300 steps were whole");
+        assert!(whole > 100, "only {whole} of 300 steps were whole");
     }
 
     /// A light particle between two heavy ones on a line, both edges stretched: the edge step
@@ -837,12 +839,18 @@ mod tests {
             .collect();
         let terms = EdgeMaterial::HARD.terms(1.0 / 600.0);
         let dxc = project_star(DVec3::ZERO, DVec3::ZERO, 1.0, &mut spokes, &terms);
-        let expected = v(0.0010501655157, 0.0006742478600, -0.0011774129139);
+        // The solution (0.0010501655157, 0.0006742478600, −0.0011774129139) moves the centre
+        // 1.72 mm, beyond the trust region (the largest violation, 1.59 mm): scaled by 0.9276.
+        let expected = v(0.0009740887446, 0.0006254035594, -0.0010921180043);
         assert!((dxc - expected).length() < 1e-9, "{dxc:?}");
-        // One Newton step leaves only second-order violations (the largest was 1.6e-3).
+        // The scaled Newton step leaves 7.2 % of each violation, and second-order terms.
         for s in &spokes {
+            let before = s.x.length() - s.rest;
             let after = (s.x + s.dx - dxc).length() - s.rest;
-            assert!(after.abs() < 3e-6, "{after:e}");
+            assert!(
+                after.abs() < 0.073 * before.abs() + 3e-6,
+                "{after:e} from {before:e}"
+            );
         }
     }
 
