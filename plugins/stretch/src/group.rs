@@ -364,13 +364,7 @@ impl StretchGroup {
         let order = independent_sets_order(&colours);
         group.ids = order.iter().map(|&k| group.ids[k]).collect();
         group.rest = order.iter().map(|&k| group.rest[k]).collect();
-        let mut start = 0;
-        while start < order.len() {
-            let colour = colours[order[start]];
-            let end = start + order[start..].partition_point(|&k| colours[k] == colour);
-            group.batches.push((start..end, colour < OVERFLOW_COLOUR));
-            start = end;
-        }
+        group.batches = colour_batches(&colours, &order);
         if !group.hard {
             group.lambda = vec![0.0; group.ids.len()];
         }
@@ -496,34 +490,64 @@ impl ConstraintGroup for StretchGroup {
 /// colour, in which edges may share particles.
 pub(crate) const OVERFLOW_COLOUR: usize = 64;
 
-/// Greedy colouring of the edges in their given order: each edge takes the smallest colour
-/// no edge at either of its particles has yet, so the edges of one colour (below
-/// [`OVERFLOW_COLOUR`]) share no particle.
-pub(crate) fn edge_colours(ids: &[[u32; 2]], particles: usize) -> Vec<usize> {
+/// Greedy colouring of `count` items in their given order, item `k` writing the particles
+/// `written(k)`: each takes the smallest colour no item writing one of its particles has yet,
+/// so the items of one colour (below [`OVERFLOW_COLOUR`]) write no common particle. An item
+/// all of whose colours are taken gets [`OVERFLOW_COLOUR`]. Edges write their two ends
+/// ([`edge_colours`]); stars their centre and its neighbours ([`crate::star`]).
+pub(crate) fn greedy_colours<I: Iterator<Item = usize>>(
+    count: usize,
+    particles: usize,
+    written: impl Fn(usize) -> I,
+) -> Vec<usize> {
     let mut used = vec![0u64; particles];
-    ids.iter()
-        .map(|&[i, j]| {
-            let (i, j) = (i as usize, j as usize);
-            let free = !(used[i] | used[j]);
-            if free == 0 {
+    (0..count)
+        .map(|k| {
+            let taken = written(k).fold(0u64, |acc, p| acc | used[p]);
+            if taken == u64::MAX {
                 return OVERFLOW_COLOUR;
             }
-            let colour = free.trailing_zeros() as usize;
-            used[i] |= 1 << colour;
-            used[j] |= 1 << colour;
+            let colour = (!taken).trailing_zeros() as usize;
+            written(k).for_each(|p| used[p] |= 1 << colour);
             colour
         })
         .collect()
+}
+
+/// Greedy colouring of the edges in their given order ([`greedy_colours`]): the edges of one
+/// colour (below [`OVERFLOW_COLOUR`]) share no particle.
+pub(crate) fn edge_colours(ids: &[[u32; 2]], particles: usize) -> Vec<usize> {
+    greedy_colours(ids.len(), particles, |k| {
+        ids[k].into_iter().map(|p| p as usize)
+    })
 }
 
 /// A fixed order of the edges in which runs of consecutive edges share no particle: colour by
 /// colour ([`edge_colours`]), each colour in the given order. Deterministic; the projection
 /// stays plain sequential Gauss-Seidel over it, but consecutive edges no longer wait for each
 /// other's position writes, so the processor overlaps their square roots and divisions.
-fn independent_sets_order(colours: &[usize]) -> Vec<usize> {
+pub(crate) fn independent_sets_order(colours: &[usize]) -> Vec<usize> {
     let mut order: Vec<usize> = (0..colours.len()).collect();
     order.sort_by_key(|&k| colours[k]); // stable: the given order within a colour
     order
+}
+
+/// The consecutive ranges of `order` (from [`independent_sets_order`]) of one colour each,
+/// flagged `true` when that colour is a real one (its items write no common particle) and so
+/// may be split over threads; `false` for [`OVERFLOW_COLOUR`].
+pub(crate) fn colour_batches(
+    colours: &[usize],
+    order: &[usize],
+) -> Vec<(std::ops::Range<usize>, bool)> {
+    let mut batches = Vec::new();
+    let mut start = 0;
+    while start < order.len() {
+        let colour = colours[order[start]];
+        let end = start + order[start..].partition_point(|&k| colours[k] == colour);
+        batches.push((start..end, colour < OVERFLOW_COLOUR));
+        start = end;
+    }
+    batches
 }
 
 /// The factory of the `stretch` kind.

@@ -77,7 +77,10 @@ use nucleus_sdk::team::{span, SharedArray};
 
 use crate::chebyshev::Chebyshev;
 use crate::distance::{EdgeMaterial, XpbdTerms, MIN_LENGTH};
-use crate::group::{edge_residual, Edges, StretchParams, OVERFLOW_COLOUR, PARALLEL_MIN_EDGES};
+use crate::group::{
+    colour_batches, edge_residual, greedy_colours, independent_sets_order, Edges, StretchParams,
+    PARALLEL_MIN_EDGES,
+};
 
 /// A star's spokes are solved together in chunks of at most this many (a stack buffer).
 pub const MAX_SPOKES: usize = 32;
@@ -376,26 +379,12 @@ impl StarGroup {
             }
         }
         let spokes_of = |p: usize| start[p] as usize..start[p + 1] as usize;
-        // Greedy colouring: a star writes its centre and its neighbours; it takes the smallest
-        // colour no star writing one of those particles has yet.
-        let mut used = vec![0u64; particles];
-        let colours: Vec<usize> = centres
-            .iter()
-            .map(|&c| {
-                let c = c as usize;
-                let written =
-                    || std::iter::once(c).chain(spokes_of(c).map(|k| spoke_other[k] as usize));
-                let taken = written().fold(0u64, |acc, p| acc | used[p]);
-                if taken == u64::MAX {
-                    return OVERFLOW_COLOUR;
-                }
-                let colour = (!taken).trailing_zeros() as usize;
-                written().for_each(|p| used[p] |= 1 << colour);
-                colour
-            })
-            .collect();
-        let mut order: Vec<usize> = (0..centres.len()).collect();
-        order.sort_by_key(|&s| colours[s]); // stable: the centres' order within a colour
+        // A star writes its centre and its neighbours.
+        let colours = greedy_colours(centres.len(), particles, |s| {
+            let c = centres[s] as usize;
+            std::iter::once(c).chain(spokes_of(c).map(|k| spoke_other[k] as usize))
+        });
+        let order = independent_sets_order(&colours);
         let hard = params.is_hard();
         let mut group = StarGroup {
             lambda: if hard {
@@ -422,13 +411,7 @@ impl StarGroup {
             group.edge.extend_from_slice(&spoke_edge[spokes_of(c)]);
             group.first.push(group.other.len() as u32);
         }
-        let mut begin = 0;
-        while begin < order.len() {
-            let colour = colours[order[begin]];
-            let end = begin + order[begin..].partition_point(|&s| colours[s] == colour);
-            group.batches.push((begin..end, colour < OVERFLOW_COLOUR));
-            begin = end;
-        }
+        group.batches = colour_batches(&colours, &order);
         group
     }
 
