@@ -403,11 +403,7 @@ impl ConstraintGroup for StretchGroup {
     /// 11.1 ms per frame instead of 12.6 on 2 threads and 20.4 instead of 22.7 on one (medians,
     /// back to back; the same bits).
     fn stages(&self) -> Stages {
-        if self.hard && self.chebyshev.is_none() {
-            Stages::PROJECT
-        } else {
-            Stages::BEGIN_SUBSTEP | Stages::PROJECT
-        }
+        substep_stages(self.hard, &self.chebyshev)
     }
 
     fn len(&self) -> usize {
@@ -417,10 +413,7 @@ impl ConstraintGroup for StretchGroup {
     /// Resets every λ to 0: XPBD's λ is the total multiplier of the substep, and the
     /// positions just predicted carry none of it yet.
     fn begin_substep(&mut self, _ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
-        self.lambda.fill(0.0);
-        if let Some(c) = self.chebyshev.as_mut() {
-            c.begin_substep();
-        }
+        reset_substep(&mut self.lambda, &mut self.chebyshev);
         Ok(())
     }
 
@@ -548,6 +541,25 @@ pub(crate) fn colour_batches(
         start = end;
     }
     batches
+}
+
+/// The stages of a `stretch` group, edges or stars: `begin_substep` only where there is
+/// something to reset, multipliers (a compliant material) or Chebyshev's iterates.
+pub(crate) fn substep_stages(hard: bool, chebyshev: &Option<Chebyshev>) -> Stages {
+    if hard && chebyshev.is_none() {
+        Stages::PROJECT
+    } else {
+        Stages::BEGIN_SUBSTEP | Stages::PROJECT
+    }
+}
+
+/// The `begin_substep` of a `stretch` group: XPBD's multipliers are the substep's totals, and
+/// Chebyshev restarts with the substep.
+pub(crate) fn reset_substep(lambda: &mut [f64], chebyshev: &mut Option<Chebyshev>) {
+    lambda.fill(0.0);
+    if let Some(c) = chebyshev.as_mut() {
+        c.begin_substep();
+    }
 }
 
 /// The factory of the `stretch` kind.

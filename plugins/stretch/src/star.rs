@@ -78,8 +78,8 @@ use nucleus_sdk::team::{span, SharedArray};
 use crate::chebyshev::Chebyshev;
 use crate::distance::{EdgeMaterial, XpbdTerms, MIN_LENGTH};
 use crate::group::{
-    colour_batches, edge_residual, greedy_colours, independent_sets_order, Edges, StretchParams,
-    PARALLEL_MIN_EDGES,
+    colour_batches, edge_residual, greedy_colours, independent_sets_order, reset_substep,
+    substep_stages, Edges, StretchParams, PARALLEL_MIN_EDGES,
 };
 
 /// A star's spokes are solved together in chunks of at most this many (a stack buffer).
@@ -491,11 +491,7 @@ impl ConstraintGroup for StarGroup {
     /// As [`crate::StretchGroup`]: `project`, and `begin_substep` for the multipliers of a
     /// compliant material or the Chebyshev iterates.
     fn stages(&self) -> Stages {
-        if self.hard && self.chebyshev.is_none() {
-            Stages::PROJECT
-        } else {
-            Stages::BEGIN_SUBSTEP | Stages::PROJECT
-        }
+        substep_stages(self.hard, &self.chebyshev)
     }
 
     fn len(&self) -> usize {
@@ -503,10 +499,7 @@ impl ConstraintGroup for StarGroup {
     }
 
     fn begin_substep(&mut self, _ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
-        self.lambda.fill(0.0);
-        if let Some(c) = self.chebyshev.as_mut() {
-            c.begin_substep();
-        }
+        reset_substep(&mut self.lambda, &mut self.chebyshev);
         Ok(())
     }
 
