@@ -3,7 +3,7 @@
 by a two-grid cycle with a Galerkin coarse operator instead of Jacobi. numpy + scipy. See
 README.md.
 
-usage: twogrid.py N SUBSTEPS CG [--smooth NU] [--frames 120] [--jacobi] [--trace]
+usage: twogrid.py N SUBSTEPS CG [--smooth NU] [--frames 120] [--jacobi] [--quads] [--trace]
 
 N must be odd (the coarse grid takes every other vertex). Per substep, after the prediction:
 one Newton step on all edges, (J W J^T) dl = -C at the predicted positions, solved by CG
@@ -35,6 +35,7 @@ p.add_argument("cg", type=int)
 p.add_argument("--smooth", type=int, default=1)
 p.add_argument("--frames", type=int, default=120)
 p.add_argument("--jacobi", action="store_true")
+p.add_argument("--quads", action="store_true", help="no diagonal edges (a quad mesh)")
 p.add_argument("--trace", action="store_true")
 a = p.parse_args()
 N = a.N
@@ -53,7 +54,7 @@ for i in range(N):
         if i + 1 < N:
             index[("v", i, j)] = len(E)
             E.append((i * N + j, (i + 1) * N + j))
-        if i + 1 < N and j + 1 < N:
+        if i + 1 < N and j + 1 < N and not a.quads:
             index[("d", i, j)] = len(E)
             E.append((i * N + j, (i + 1) * N + j + 1))
 E = np.array(E)
@@ -80,7 +81,7 @@ for I in range(Nc):
             i, j = 2 * I, 2 * J
             targets.append([(("v", i, j), 1.0), (("v", i + 1, j), 1.0)]
                            + [(("v", i + t, j + s), 0.5) for s in (-1, 1) for t in (0, 1)])
-        if I + 1 < Nc and J + 1 < Nc:  # diagonal
+        if I + 1 < Nc and J + 1 < Nc and not a.quads:  # diagonal
             i, j = 2 * I, 2 * J
             targets.append([(("d", i, j), 1.0), (("d", i + 1, j + 1), 1.0),
                             (("d", i, j + 1), 0.5), (("d", i + 1, j), 0.5)])
