@@ -15,6 +15,7 @@ frame (each one gather and one scatter over the edges: at least the cost of one 
 pass).
 """
 import numpy as np, sys, time, argparse
+from drape import StrainLog
 p = argparse.ArgumentParser()
 p.add_argument('N', type=int); p.add_argument('S', type=int); p.add_argument('newton', type=int)
 p.add_argument('cg', type=int); p.add_argument('--warm', type=float, default=0.0)
@@ -51,7 +52,7 @@ def scatter_fast(y,n):
 def Amul(y,n):
     u=w[:,None]*scatter_fast(y,n)
     return np.einsum('ij,ij->i', n, u[ea]-u[eb])
-rows=[]; matvecs=0
+log=StrainLog(ea, eb, L, struct); matvecs=0
 for fr in range(a.frames):
     for s in range(a.S):
         xo=x.copy()
@@ -76,10 +77,7 @@ for fr in range(a.frames):
             total+=y
         lam_prev=total
         v=(x-xo)/dt
-    d=x[ea]-x[eb]; st=np.abs(np.linalg.norm(d,axis=1)-L)/L
-    ss=st[struct]
-    rows.append((ss.max(), np.sqrt((ss**2).mean())))
-    if a.trace and fr%10==0: print(fr, rows[-1], x[:,1].min(), flush=True)
-    if not np.isfinite(x).all() or np.abs(x).max()>100: print('exploded at', fr); break
-r=np.array(rows[-60:])
-print(f"N={N} S={a.S} newton={a.newton} cg={a.cg} warm={a.warm}: max {100*r[:,0].mean():.3f}% rms {100*r[:,1].mean():.4f}%  matvecs/frame {matvecs/len(rows):.0f} miny {x[:,1].min():.3f}")
+    if not log.frame(x, fr, a.trace):
+        break
+strain_max, strain_rms = log.means()
+print(f"N={N} S={a.S} newton={a.newton} cg={a.cg} warm={a.warm}: max {strain_max:.3f}% rms {strain_rms:.4f}%  matvecs/frame {matvecs/len(log.rows):.0f} miny {x[:,1].min():.3f}")

@@ -26,6 +26,8 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spl
 
+from drape import StrainLog
+
 p = argparse.ArgumentParser()
 p.add_argument("N", type=int)
 p.add_argument("S", type=int)
@@ -95,7 +97,8 @@ def gradient_and_hessian(x, xt):
 
 x = X.copy()
 v = np.zeros_like(x)
-rows, newton_steps, halvings = [], 0, 0
+log = StrainLog(ea, eb, L, struct)
+newton_steps, halvings = 0, 0
 for fr in range(a.frames):
     for s in range(a.S):
         xo = x.copy()
@@ -115,16 +118,9 @@ for fr in range(a.frames):
             x = x + t * step
             newton_steps += 1
         v = (x - xo) / dt
-    d = x[ea] - x[eb]
-    st = np.abs(np.linalg.norm(d, axis=1) - L) / L
-    ss = st[struct]
-    rows.append((ss.max(), np.sqrt((ss ** 2).mean())))
-    if a.trace and fr % 10 == 0:
-        print(fr, rows[-1], x[:, 1].min(), flush=True)
-    if not np.isfinite(x).all() or np.abs(x).max() > 100:
-        print("exploded at", fr)
+    if not log.frame(x, fr, a.trace):
         break
-r = np.array(rows[-60:])
-print(f"N={N} S={a.S} newton={a.newton} compliance={a.compliance:g}: max {100 * r[:, 0].mean():.3f}% "
-      f"rms {100 * r[:, 1].mean():.4f}%  Newton steps/frame {newton_steps / len(rows):.0f}, "
-      f"halvings/frame {halvings / len(rows):.1f}, lowest point {x[:, 1].min():.3f} m")
+strain_max, strain_rms = log.means()
+print(f"N={N} S={a.S} newton={a.newton} compliance={a.compliance:g}: max {strain_max:.3f}% "
+      f"rms {strain_rms:.4f}%  Newton steps/frame {newton_steps / len(log.rows):.0f}, "
+      f"halvings/frame {halvings / len(log.rows):.1f}, lowest point {x[:, 1].min():.3f} m")

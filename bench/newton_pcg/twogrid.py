@@ -28,6 +28,8 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spl
 
+from drape import StrainLog
+
 p = argparse.ArgumentParser()
 p.add_argument("N", type=int)
 p.add_argument("S", type=int)
@@ -99,7 +101,7 @@ dt = 1.0 / 60 / a.S
 x = X.copy()
 v = np.zeros_like(x)
 free = w > 0
-rows_strain = []
+log = StrainLog(ea, eb, L, struct)
 iterations = 0
 er = np.arange(ne)
 
@@ -171,18 +173,11 @@ for fr in range(a.frames):
         iterations += a.cg
         x = x + (w[:, None] * (J.T @ y).reshape(-1, 3))
         v = (x - xo) / dt
-    d = x[ea] - x[eb]
-    st = np.abs(np.linalg.norm(d, axis=1) - L) / L
-    ss = st[struct]
-    rows_strain.append((ss.max(), np.sqrt((ss ** 2).mean())))
-    if a.trace and fr % 10 == 0:
-        print(fr, rows_strain[-1], x[:, 1].min(), flush=True)
-    if not np.isfinite(x).all() or np.abs(x).max() > 100:
-        print("exploded at", fr)
+    if not log.frame(x, fr, a.trace):
         break
-r = np.array(rows_strain[-60:])
-per_frame = iterations / len(rows_strain)
+strain_max, strain_rms = log.means()
+per_frame = iterations / len(log.rows)
 per_iteration = 1.0 if a.jacobi else 2 * a.smooth + 3.5
 print(f"N={N} S={a.S} cg={a.cg} {'jacobi' if a.jacobi else f'two-grid nu={a.smooth}'}: "
-      f"max {100 * r[:, 0].mean():.3f}% rms {100 * r[:, 1].mean():.4f}%  "
+      f"max {strain_max:.3f}% rms {strain_rms:.4f}%  "
       f"CG iterations/frame {per_frame:.0f}, ~{per_frame * per_iteration:.0f} sweep-equivalents/frame")
