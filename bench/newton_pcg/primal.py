@@ -3,6 +3,7 @@
 geometric stiffness, each Newton step a sparse direct solve. numpy + scipy. See README.md.
 
 usage: primal.py N SUBSTEPS NEWTON [--compliance ALPHA] [--frames 120] [--trace] [--amg CG]
+                 [--cost]
 
 Per substep, implicit Euler on stiff springs (compliance ALPHA m/N, default 1e-8: the strain
 the compliance itself allows is ~1e-6 at the pins):
@@ -24,8 +25,13 @@ With `--amg CG`, each Newton step is instead CG iterations (at most CG) precondi
 V-cycle of smoothed-aggregation algebraic multigrid (pyamg, built anew for every Newton step,
 the six rigid-body modes as its near-null space): the iterative solver a plugin would need.
 Prints CG iterations, relative residuals and the hierarchy's operator complexity too.
+
+With `--cost`, after the run: what one such CG iteration costs on the Hessian of the last
+positions (the hanging cloth), on one thread (run with OMP_NUM_THREADS=1), best of 5 repeats:
+the Hessian's product (3 x 3 block sparse, scipy BSR), one V-cycle and the hierarchy's setup.
 """
 import argparse
+import time
 
 import numpy as np
 import scipy.sparse as sp
@@ -42,6 +48,8 @@ p.add_argument("--frames", type=int, default=120)
 p.add_argument("--trace", action="store_true")
 p.add_argument("--amg", type=int, default=0, metavar="CG",
                help="solve each Newton step by at most CG iterations of AMG-preconditioned CG")
+p.add_argument("--cost", action="store_true",
+               help="time a Hessian product, a V-cycle and the AMG setup after the run")
 a = p.parse_args()
 N = a.N
 h = 1.0 / (N - 1)
@@ -92,19 +100,53 @@ def rigid_modes(x):
     return b.reshape(-1, 6)
 
 
+def amg_hierarchy(Hf, x_free):
+    """Smoothed aggregation for the free block `Hf` of the Hessian at the free particles
+    `x_free` (pyamg), keeping their rigid-body modes."""
+    import pyamg
+
+    return pyamg.smoothed_aggregation_solver(Hf.tocsr(), B=rigid_modes(x_free),
+                                             strength=("symmetric", {"theta": 0.0}),
+                                             max_coarse=200)
+
+
 def amg_solve(Hf, rhs, x_free):
     """At most `a.amg` iterations of CG on `Hf s = rhs` from 0, preconditioned by a V-cycle of
     smoothed aggregation; records the iterations, residual reduction and complexity."""
-    import pyamg
-
-    ml = pyamg.smoothed_aggregation_solver(Hf.tocsr(), B=rigid_modes(x_free),
-                                           strength=("symmetric", {"theta": 0.0}),
-                                           max_coarse=200)
+    ml = amg_hierarchy(Hf, x_free)
     res = []
     s = ml.solve(rhs, x0=np.zeros(len(rhs)), tol=1e-14, maxiter=a.amg, accel="cg",
                  residuals=res)
     amg_log.append((len(res) - 1, res[-1] / res[0], ml.operator_complexity()))
     return s
+
+
+def best_time(f, repeats):
+    """The least mean wall time (s) of `f()` over 5 runs of `repeats` calls."""
+    best = float("inf")
+    for _ in range(5):
+        t0 = time.perf_counter()
+        for _ in range(repeats):
+            f()
+        best = min(best, (time.perf_counter() - t0) / repeats)
+    return best
+
+
+def print_cost(x):
+    """What one AMG-preconditioned CG iteration costs on the Hessian at `x`."""
+    _, H = gradient_and_hessian(x, x)
+    Hf = H[free_dofs][:, free_dofs].tocsr()
+    v = np.random.default_rng(1).standard_normal(Hf.shape[0])
+    bsr = sp.bsr_matrix(Hf, blocksize=(3, 3))
+    product = best_time(lambda: bsr @ v, 50)
+    t0 = time.perf_counter()
+    ml = amg_hierarchy(Hf, x[free])
+    setup = time.perf_counter() - t0
+    cycle = ml.aspreconditioner(cycle="V")
+    v_cycle = best_time(lambda: cycle @ v, 10)
+    print(f"cost: {Hf.shape[0]} unknowns, {Hf.nnz} non-zeros; product (BSR) "
+          f"{product * 1e3:.3f} ms, V-cycle {v_cycle * 1e3:.2f} ms, AMG setup "
+          f"{setup * 1e3:.0f} ms, operator complexity {ml.operator_complexity():.2f}")
 
 
 def phi(x, xt):
@@ -168,3 +210,5 @@ if amg_log:
     print(f"AMG-CG: {its.mean():.1f} iterations per Newton step, residual reduced "
           f"{np.median(red):.1e} (median) / {red.max():.1e} (worst), operator complexity "
           f"{cx.mean():.2f} (mean) / {cx.max():.2f} (max)")
+if a.cost:
+    print_cost(x)
