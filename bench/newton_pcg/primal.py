@@ -48,6 +48,19 @@ p.add_argument("--frames", type=int, default=120)
 p.add_argument("--trace", action="store_true")
 p.add_argument("--amg", type=int, default=0, metavar="CG",
                help="solve each Newton step by at most CG iterations of AMG-preconditioned CG")
+p.add_argument("--rebuild", type=int, default=1, metavar="R",
+               help="with --amg: build the hierarchy only every R-th Newton step; between builds "
+               "reuse it (its prolongators), see --galerkin")
+p.add_argument("--galerkin", action="store_true",
+               help="with --rebuild: between builds, recompute the coarse operators R H P and "
+               "the smoothers for the current Hessian (otherwise the old V-cycle is used as is)")
+p.add_argument("--gmg", action="store_true",
+               help="with --amg: instead of smoothed aggregation, a geometric hierarchy fixed at "
+               "the start (maximal independent sets of the edge graph, each dropped particle "
+               "interpolated from its kept neighbours, as the stretch_hierarchy kind does; the "
+               "same weights for x, y, z) with Galerkin operators R H P for every Hessian")
+p.add_argument("--coarsest", type=int, default=60, metavar="NODES",
+               help="with --gmg: coarsen until a level has at most NODES particles")
 p.add_argument("--cost", action="store_true",
                help="time a Hessian product, a V-cycle and the AMG setup after the run")
 a = p.parse_args()
@@ -110,14 +123,142 @@ def amg_hierarchy(Hf, x_free):
                                              max_coarse=200)
 
 
+def geometric_prolongators(x_free, edges_free, coarsest):
+    """Per level, the scalar interpolation (CSR, fine x coarse) of the free particles'
+    hierarchy: a greedy maximal independent set kept (by index), each dropped particle moved by
+    its kept neighbours weighted by inverse rest length; the next level's graph joins kept
+    particles within three edges through dropped ones. Kronecker'd with I3 for x, y, z."""
+    n = len(x_free)
+    graph = [dict() for _ in range(n)]
+    for u, w in edges_free:
+        d = np.linalg.norm(x_free[u] - x_free[w])
+        graph[u][w] = graph[w][u] = d
+    out = []
+    while n > coarsest:
+        state = np.zeros(n, np.int8)
+        for v in range(n):
+            if state[v] == 0:
+                state[v] = 1
+                for u in graph[v]:
+                    if state[u] == 0:
+                        state[u] = 2
+        kept = np.flatnonzero(state == 1)
+        ci = -np.ones(n, int)
+        ci[kept] = np.arange(len(kept))
+        rows, cols, vals = [], [], []
+        for v in range(n):
+            if ci[v] >= 0:
+                rows.append(v); cols.append(ci[v]); vals.append(1.0)
+                continue
+            par = [(ci[u], 1.0 / l) for u, l in graph[v].items() if ci[u] >= 0]
+            tot = sum(w for _, w in par)
+            for c, w in par:
+                rows.append(v); cols.append(c); vals.append(w / tot)
+        P = sp.csr_matrix((vals, (rows, cols)), shape=(n, len(kept)))
+        out.append(sp.kron(P, sp.eye(3), format="csr"))
+        coarse = [dict() for _ in range(len(kept))]
+        for a_, v in enumerate(kept):
+            frontier = {v: 0.0}
+            for _ in range(3):
+                nxt = {}
+                for f, lf in frontier.items():
+                    for u, l in graph[f].items():
+                        if u == v:
+                            continue
+                        if ci[u] >= 0:
+                            b_ = ci[u]
+                            coarse[a_][b_] = min(coarse[a_].get(b_, np.inf), lf + l)
+                        elif lf + l < nxt.get(u, np.inf):
+                            nxt[u] = lf + l
+                frontier = nxt
+        graph, n = coarse, len(kept)
+    return out
+
+
+def gmg_hierarchy(Hf):
+    """The geometric hierarchy's V-cycle for `Hf`: Galerkin operators, block Gauss-Seidel."""
+    from pyamg.multilevel import MultilevelSolver
+    from pyamg.relaxation.smoothing import change_smoothers
+
+    levels, A = [], Hf.tocsr()
+    for P in gmg_prolongators:
+        lv = MultilevelSolver.Level()
+        lv.A, lv.P, lv.R = A, P, P.T.tocsr()
+        A = (lv.R @ A @ P).tocsr()
+        levels.append(lv)
+    lv = MultilevelSolver.Level()
+    lv.A = A
+    levels.append(lv)
+    ml = MultilevelSolver(levels, coarse_solver="pinv")
+    sweep = ("block_gauss_seidel", {"sweep": "symmetric", "blocksize": 3})
+    change_smoothers(ml, sweep, sweep)
+    return ml
+
+
+def galerkin_update(ml, Hf):
+    """`ml`'s prolongators kept, its operators recomputed for `Hf` (R A P level by level) and
+    its smoothers set up anew: the hierarchy reused for a new Hessian."""
+    from pyamg.multilevel import MultilevelSolver
+    from pyamg.relaxation.smoothing import change_smoothers
+
+    levels, A = [], Hf.tocsr()
+    for old in ml.levels:
+        lv = MultilevelSolver.Level()
+        lv.A = A
+        if hasattr(old, "P"):
+            lv.P, lv.R = old.P, old.R
+            A = (old.R @ A @ old.P).tocsr()
+        levels.append(lv)
+    new = MultilevelSolver(levels, coarse_solver="pinv")
+    sweep = ("block_gauss_seidel", {"sweep": "symmetric"})
+    change_smoothers(new, sweep, sweep)
+    return new
+
+
 def amg_solve(Hf, rhs, x_free):
     """At most `a.amg` iterations of CG on `Hf s = rhs` from 0, preconditioned by a V-cycle of
-    smoothed aggregation; records the iterations, residual reduction and complexity."""
-    ml = amg_hierarchy(Hf, x_free)
+    smoothed aggregation; records the iterations, residual reduction and complexity. The
+    hierarchy is built every `a.rebuild`-th call, reused (frozen or Galerkin-updated) between."""
+    global amg_cached
+    own = True  # whether the V-cycle's finest operator is Hf itself
+    if a.gmg:
+        ml = gmg_hierarchy(Hf)
+    elif amg_cached is None or amg_state["calls"] % a.rebuild == 0:
+        amg_cached = ml = amg_hierarchy(Hf, x_free)
+    elif a.galerkin:
+        ml = galerkin_update(amg_cached, Hf)
+    else:
+        ml, own = amg_cached, False
+    amg_state["calls"] += 1
     res = []
-    s = ml.solve(rhs, x0=np.zeros(len(rhs)), tol=1e-14, maxiter=a.amg, accel="cg",
-                 residuals=res)
+    if own:
+        s = ml.solve(rhs, x0=np.zeros(len(rhs)), tol=1e-14, maxiter=a.amg, accel="cg",
+                     residuals=res)
+    else:
+        s = cg_frozen(ml, Hf, rhs, res)
     amg_log.append((len(res) - 1, res[-1] / res[0], ml.operator_complexity()))
+    return s
+
+
+def cg_frozen(ml, Hf, rhs, res):
+    """CG on `Hf s = rhs` from 0 preconditioned by `ml`'s V-cycle, `ml` built for another
+    Hessian; residual norms appended to `res`."""
+    M = ml.aspreconditioner(cycle="V")
+    s = np.zeros(len(rhs))
+    r = rhs.copy()
+    z = M @ r
+    d = z.copy()
+    rz = r @ z
+    res.append(np.linalg.norm(r))
+    for _ in range(a.amg):
+        q = Hf @ d
+        alpha = rz / (d @ q)
+        s += alpha * d
+        r -= alpha * q
+        res.append(np.linalg.norm(r))
+        z = M @ r
+        rz, rz_old = r @ z, rz
+        d = z + (rz / rz_old) * d
     return s
 
 
@@ -177,6 +318,14 @@ v = np.zeros_like(x)
 log = StrainLog(ea, eb, L, struct)
 newton_steps, halvings = 0, 0
 amg_log = []
+amg_cached, amg_state = None, {"calls": 0}
+if a.gmg:
+    fi = -np.ones(nv, int)
+    fi[free] = np.arange(free.sum())
+    keep = free[ea] & free[eb]
+    gmg_prolongators = geometric_prolongators(X[free], np.c_[fi[ea[keep]], fi[eb[keep]]],
+                                              a.coarsest)
+    print("geometric levels:", [P.shape for P in gmg_prolongators])
 for fr in range(a.frames):
     for s in range(a.S):
         xo = x.copy()

@@ -204,6 +204,8 @@ pub mod chebyshev;
 pub mod distance;
 pub mod group;
 pub mod hierarchy;
+pub mod multigrid;
+pub mod newton;
 pub mod star;
 pub mod tether;
 
@@ -215,7 +217,8 @@ pub use group::{StretchGroup, StretchParams};
 
 use nucleus_sdk::KindSpec;
 
-/// The kinds this plugin provides: `stretch`, `tether` and `stretch_hierarchy`.
+/// The kinds this plugin provides: `stretch`, `tether`, `stretch_hierarchy` and
+/// `stretch_newton`.
 pub fn kinds() -> Vec<KindSpec> {
     vec![
         KindSpec {
@@ -254,6 +257,19 @@ pub fn kinds() -> Vec<KindSpec> {
             residual_unit: "relative overshoot",
             params: hierarchy::HierarchyParams::specs(),
             factory: hierarchy::build,
+        },
+        KindSpec {
+            name: "stretch_newton",
+            doc: "Every edge of the target objects as a stiff spring (compliance > 0), solved \
+                  globally: each pass is one Newton step on the substep's implicit-Euler \
+                  problem, its linear system solved by a few conjugate-gradient iterations \
+                  preconditioned by a geometric multigrid V-cycle. For cloth that must not \
+                  stretch, at few substeps; use it instead of `stretch`.",
+            default_order: 0,
+            default_importance: 1,
+            residual_unit: "strain",
+            params: newton::NewtonParams::specs(),
+            factory: newton::build,
         },
     ]
 }

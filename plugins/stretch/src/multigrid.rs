@@ -1,0 +1,535 @@
+//! The linear algebra of the `stretch_newton` kind: a symmetric 3 × 3-block sparse matrix, a
+//! geometric multigrid hierarchy over it with Galerkin coarse operators, and conjugate
+//! gradients preconditioned by one V-cycle.
+//!
+//! * [`BlockMatrix`] — compressed sparse rows of 3 × 3 blocks, both triangles stored, the
+//!   pattern fixed at construction; a product costs one pass over the blocks.
+//! * [`Prolongation`] — a scalar interpolation from a coarse level's particles to a fine
+//!   level's (a kept particle copies its coarse self, a dropped one takes a weighted mean of
+//!   its coarse neighbours), applied to x, y and z alike: `P = P_s ⊗ I₃`.
+//! * [`Hierarchy`] — the levels. Its pattern, the prolongations and the symbolic Galerkin
+//!   product are built once; [`Hierarchy::update`] recomputes every coarse operator
+//!   `A_{l+1} = Pᵀ A_l P`, the diagonal blocks' inverses and the coarsest level's dense
+//!   Cholesky factor for a new fine matrix, allocating nothing.
+//! * [`Hierarchy::v_cycle`] — one forward block Gauss-Seidel sweep, the coarse correction,
+//!   one backward sweep: a symmetric positive definite preconditioner for a symmetric
+//!   positive definite matrix.
+//! * [`Pcg`] — conjugate gradients from zero with that preconditioner, at most a given number
+//!   of iterations.
+//!
+//! Everything is sequential and runs in a fixed order, so results are bit-identical from run
+//! to run.
+
+use glam::{DMat3, DVec3};
+
+/// A square matrix of 3 × 3 blocks in compressed sparse rows, both triangles stored, columns
+/// sorted within a row and the diagonal block always present.
+#[derive(Clone, Debug, Default)]
+pub struct BlockMatrix {
+    /// `start[i]..start[i + 1]`: the slots of row `i`.
+    pub start: Vec<u32>,
+    /// Block column of each slot.
+    pub col: Vec<u32>,
+    /// Block value of each slot.
+    pub val: Vec<DMat3>,
+    /// Slot of the diagonal block of each row.
+    pub diag: Vec<u32>,
+}
+
+impl BlockMatrix {
+    /// A zero matrix of `n` block rows with the diagonal and, for every pair `(i, j)`, the
+    /// blocks `(i, j)` and `(j, i)`.
+    pub fn with_pattern(n: usize, pairs: impl IntoIterator<Item = (u32, u32)>) -> BlockMatrix {
+        let mut rows: Vec<Vec<u32>> = (0..n as u32).map(|i| vec![i]).collect();
+        for (i, j) in pairs {
+            rows[i as usize].push(j);
+            rows[j as usize].push(i);
+        }
+        let mut m = BlockMatrix {
+            start: Vec::with_capacity(n + 1),
+            ..BlockMatrix::default()
+        };
+        m.start.push(0);
+        for (i, row) in rows.iter_mut().enumerate() {
+            row.sort_unstable();
+            row.dedup();
+            let d = row.binary_search(&(i as u32)).unwrap_or(0);
+            m.diag.push((m.col.len() + d) as u32);
+            m.col.extend_from_slice(row);
+            m.start.push(m.col.len() as u32);
+        }
+        m.val = vec![DMat3::ZERO; m.col.len()];
+        m
+    }
+
+    /// Number of block rows.
+    pub fn n(&self) -> usize {
+        self.diag.len()
+    }
+
+    /// The slot of block `(i, j)`, if it is in the pattern.
+    pub fn slot(&self, i: u32, j: u32) -> Option<usize> {
+        let range = self.start[i as usize] as usize..self.start[i as usize + 1] as usize;
+        self.col[range.clone()]
+            .binary_search(&j)
+            .ok()
+            .map(|k| range.start + k)
+    }
+
+    /// Sets every block to zero, keeping the pattern.
+    pub fn zero(&mut self) {
+        self.val.iter_mut().for_each(|b| *b = DMat3::ZERO);
+    }
+
+    /// `y = A x`.
+    pub fn mul(&self, x: &[DVec3], y: &mut [DVec3]) {
+        for (i, yi) in y.iter_mut().enumerate().take(self.n()) {
+            let mut sum = DVec3::ZERO;
+            for s in self.start[i] as usize..self.start[i + 1] as usize {
+                sum += self.val[s] * x[self.col[s] as usize];
+            }
+            *yi = sum;
+        }
+    }
+}
+
+/// A scalar interpolation from `coarse` particles to fine ones, one row per fine particle:
+/// `(fine)ᵢ = Σₖ weightₖ (coarse)_{col k}` over the row's entries (applied to each of x, y, z).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Prolongation {
+    /// Number of coarse particles.
+    pub coarse: usize,
+    /// `start[i]..start[i + 1]`: the entries of fine row `i`.
+    pub start: Vec<u32>,
+    /// Coarse particle of each entry.
+    pub col: Vec<u32>,
+    /// Weight of each entry.
+    pub weight: Vec<f64>,
+}
+
+impl Prolongation {
+    /// From a level of [`crate::hierarchy::coarsen`]: `kept` (fine indices of the coarse
+    /// particles) and the dropped fine particles with their coarse parents and weights.
+    pub fn from_coarsening(
+        fine: usize,
+        kept: &[u32],
+        dropped: &[crate::hierarchy::Dropped],
+    ) -> Prolongation {
+        let mut rows: Vec<Vec<(u32, f64)>> = vec![Vec::new(); fine];
+        for (k, &f) in kept.iter().enumerate() {
+            rows[f as usize].push((k as u32, 1.0));
+        }
+        for (f, parents) in dropped {
+            rows[*f as usize].extend_from_slice(parents);
+        }
+        let mut p = Prolongation {
+            coarse: kept.len(),
+            start: vec![0],
+            ..Prolongation::default()
+        };
+        for row in rows {
+            for (c, w) in row {
+                p.col.push(c);
+                p.weight.push(w);
+            }
+            p.start.push(p.col.len() as u32);
+        }
+        p
+    }
+
+    /// Number of fine particles.
+    pub fn fine(&self) -> usize {
+        self.start.len() - 1
+    }
+
+    /// The entries of fine row `i`.
+    fn row(&self, i: usize) -> impl Iterator<Item = (u32, f64)> + '_ {
+        let range = self.start[i] as usize..self.start[i + 1] as usize;
+        self.col[range.clone()]
+            .iter()
+            .copied()
+            .zip(self.weight[range].iter().copied())
+    }
+
+    /// `fine += P coarse`.
+    pub fn add_to_fine(&self, coarse: &[DVec3], fine: &mut [DVec3]) {
+        for (i, f) in fine.iter_mut().enumerate().take(self.fine()) {
+            for (c, w) in self.row(i) {
+                *f += coarse[c as usize] * w;
+            }
+        }
+    }
+
+    /// `coarse = Pᵀ fine`.
+    pub fn restrict(&self, fine: &[DVec3], coarse: &mut [DVec3]) {
+        coarse.iter_mut().for_each(|c| *c = DVec3::ZERO);
+        for (i, f) in fine.iter().enumerate().take(self.fine()) {
+            for (c, w) in self.row(i) {
+                coarse[c as usize] += *f * w;
+            }
+        }
+    }
+}
+
+/// One level of the hierarchy: its operator, its diagonal blocks' inverses, the
+/// interpolation from the next coarser level and the Galerkin map onto that level.
+#[derive(Clone, Debug, Default)]
+struct Level {
+    a: BlockMatrix,
+    inv_diag: Vec<DMat3>,
+    /// Interpolation from the next coarser level (none on the coarsest).
+    p: Option<Prolongation>,
+    /// `(fine slot, coarse slot, weight)`: the coarse operator is `Σ weight · A[fine slot]`
+    /// accumulated into each coarse slot.
+    galerkin: Vec<(u32, u32, f64)>,
+    /// Right-hand side, solution and residual of this level within a V-cycle.
+    b: Vec<DVec3>,
+    x: Vec<DVec3>,
+    r: Vec<DVec3>,
+}
+
+/// A geometric multigrid hierarchy with Galerkin coarse operators; see the module docs.
+#[derive(Clone, Debug, Default)]
+pub struct Hierarchy {
+    levels: Vec<Level>,
+    /// The coarsest operator as a dense `3n × 3n` matrix, overwritten by its Cholesky factor
+    /// (lower triangle, row-major).
+    dense: Vec<f64>,
+}
+
+impl Hierarchy {
+    /// The hierarchy over the fine matrix `fine` (its pattern; values are set by
+    /// [`fine_mut`](Self::fine_mut) and [`update`](Self::update)), with one prolongation per
+    /// coarser level, finest first: `prolongations[l]` maps level `l + 1` onto level `l`.
+    pub fn new(fine: BlockMatrix, prolongations: Vec<Prolongation>) -> Hierarchy {
+        let mut levels = Vec::new();
+        let mut a = fine;
+        for p in prolongations {
+            debug_assert_eq!(p.fine(), a.n());
+            // The coarse pattern: every pair of coarse parents of a fine block's row and column.
+            let mut pairs = Vec::new();
+            for i in 0..a.n() {
+                for s in a.start[i] as usize..a.start[i + 1] as usize {
+                    for (ci, _) in p.row(i) {
+                        for (cj, _) in p.row(a.col[s] as usize) {
+                            if ci < cj {
+                                pairs.push((ci, cj));
+                            }
+                        }
+                    }
+                }
+            }
+            let coarse = BlockMatrix::with_pattern(p.coarse, pairs);
+            let mut galerkin = Vec::new();
+            for i in 0..a.n() {
+                for s in a.start[i] as usize..a.start[i + 1] as usize {
+                    for (ci, wi) in p.row(i) {
+                        for (cj, wj) in p.row(a.col[s] as usize) {
+                            let t = coarse
+                                .slot(ci, cj)
+                                .expect("coarse pattern holds every pair");
+                            galerkin.push((s as u32, t as u32, wi * wj));
+                        }
+                    }
+                }
+            }
+            // Accumulate coarse slots in order: better locality for the numeric product.
+            galerkin.sort_unstable_by_key(|&(s, t, _)| (t, s));
+            let n = a.n();
+            levels.push(Level {
+                a,
+                inv_diag: vec![DMat3::ZERO; n],
+                p: Some(p),
+                galerkin,
+                b: vec![DVec3::ZERO; n],
+                x: vec![DVec3::ZERO; n],
+                r: vec![DVec3::ZERO; n],
+            });
+            a = coarse;
+        }
+        let n = a.n();
+        levels.push(Level {
+            a,
+            inv_diag: vec![DMat3::ZERO; n],
+            b: vec![DVec3::ZERO; n],
+            x: vec![DVec3::ZERO; n],
+            r: vec![DVec3::ZERO; n],
+            ..Level::default()
+        });
+        Hierarchy {
+            levels,
+            dense: vec![0.0; 9 * n * n],
+        }
+    }
+
+    /// The fine matrix, to assemble into before [`update`](Self::update).
+    pub fn fine_mut(&mut self) -> &mut BlockMatrix {
+        &mut self.levels[0].a
+    }
+
+    /// The fine matrix.
+    pub fn fine(&self) -> &BlockMatrix {
+        &self.levels[0].a
+    }
+
+    /// Number of levels, the finest included.
+    pub fn depth(&self) -> usize {
+        self.levels.len()
+    }
+
+    /// Block rows of each level, finest first.
+    pub fn sizes(&self) -> Vec<usize> {
+        self.levels.iter().map(|l| l.a.n()).collect()
+    }
+
+    /// Blocks stored over all levels divided by those of the finest level.
+    pub fn operator_complexity(&self) -> f64 {
+        let total: usize = self.levels.iter().map(|l| l.a.val.len()).sum();
+        total as f64 / self.levels[0].a.val.len().max(1) as f64
+    }
+
+    /// Recomputes the coarse operators, the diagonal inverses and the coarsest factor from
+    /// the fine matrix. Returns `false` if a diagonal block or the coarsest operator is not
+    /// positive definite (numerically), in which case the V-cycle must not be used.
+    pub fn update(&mut self) -> bool {
+        let mut ok = true;
+        for l in 0..self.levels.len() {
+            let (fine, coarse) = self.levels.split_at_mut(l + 1);
+            let level = &mut fine[l];
+            for (inv, &d) in level.inv_diag.iter_mut().zip(&level.a.diag) {
+                let block = level.a.val[d as usize];
+                let det = block.determinant();
+                ok &= det > 0.0 && det.is_finite() && block.x_axis.x > 0.0;
+                *inv = if det != 0.0 && det.is_finite() {
+                    block.inverse()
+                } else {
+                    DMat3::ZERO
+                };
+            }
+            if let Some(next) = coarse.first_mut() {
+                next.a.zero();
+                for &(s, t, w) in &level.galerkin {
+                    next.a.val[t as usize] += level.a.val[s as usize] * w;
+                }
+            }
+        }
+        ok & self.factor_coarsest()
+    }
+
+    /// Copies the coarsest operator into `dense` and factors it in place (Cholesky).
+    fn factor_coarsest(&mut self) -> bool {
+        let a = &self.levels.last().expect("at least one level").a;
+        let m = 3 * a.n();
+        let d = &mut self.dense;
+        d.iter_mut().for_each(|v| *v = 0.0);
+        for i in 0..a.n() {
+            for s in a.start[i] as usize..a.start[i + 1] as usize {
+                let j = a.col[s] as usize;
+                let b = a.val[s];
+                for r in 0..3 {
+                    for c in 0..3 {
+                        d[(3 * i + r) * m + 3 * j + c] = b.col(c)[r];
+                    }
+                }
+            }
+        }
+        cholesky_in_place(d, m)
+    }
+
+    /// `z ≈ A⁻¹ r` by one V-cycle from zero.
+    pub fn v_cycle(&mut self, r: &[DVec3], z: &mut [DVec3]) {
+        self.levels[0].b.copy_from_slice(r);
+        self.cycle(0);
+        z.copy_from_slice(&self.levels[0].x);
+    }
+
+    fn cycle(&mut self, l: usize) {
+        if l + 1 == self.levels.len() {
+            let level = &mut self.levels[l];
+            cholesky_solve(&self.dense, &level.b, &mut level.x);
+            return;
+        }
+        {
+            let level = &mut self.levels[l];
+            level.x.iter_mut().for_each(|v| *v = DVec3::ZERO);
+            gauss_seidel(&level.a, &level.inv_diag, &level.b, &mut level.x, false);
+            level.a.mul(&level.x, &mut level.r);
+            for (r, b) in level.r.iter_mut().zip(&level.b) {
+                *r = *b - *r;
+            }
+        }
+        {
+            let (fine, coarse) = self.levels.split_at_mut(l + 1);
+            let p = fine[l]
+                .p
+                .as_ref()
+                .expect("a prolongation on every level but the last");
+            p.restrict(&fine[l].r, &mut coarse[0].b);
+        }
+        self.cycle(l + 1);
+        let (fine, coarse) = self.levels.split_at_mut(l + 1);
+        let level = &mut fine[l];
+        let p = level
+            .p
+            .as_ref()
+            .expect("a prolongation on every level but the last");
+        p.add_to_fine(&coarse[0].x, &mut level.x);
+        gauss_seidel(&level.a, &level.inv_diag, &level.b, &mut level.x, true);
+    }
+}
+
+/// One block Gauss-Seidel sweep on `A x = b`, rows in order (or reversed).
+fn gauss_seidel(a: &BlockMatrix, inv_diag: &[DMat3], b: &[DVec3], x: &mut [DVec3], backward: bool) {
+    let n = a.n();
+    let mut row = |i: usize| {
+        let mut sum = b[i];
+        for s in a.start[i] as usize..a.start[i + 1] as usize {
+            let j = a.col[s] as usize;
+            if j != i {
+                sum -= a.val[s] * x[j];
+            }
+        }
+        x[i] = inv_diag[i] * sum;
+    };
+    if backward {
+        (0..n).rev().for_each(&mut row);
+    } else {
+        (0..n).for_each(&mut row);
+    }
+}
+
+/// Cholesky factorisation `A = L Lᵀ` of the dense symmetric `m × m` row-major `a`, in place
+/// (lower triangle). Returns `false` if a pivot is not positive (the factor is then unusable).
+pub fn cholesky_in_place(a: &mut [f64], m: usize) -> bool {
+    for j in 0..m {
+        let mut d = a[j * m + j];
+        for k in 0..j {
+            d -= a[j * m + k] * a[j * m + k];
+        }
+        if !(d > 0.0 && d.is_finite()) {
+            return false;
+        }
+        let d = d.sqrt();
+        a[j * m + j] = d;
+        for i in j + 1..m {
+            let mut s = a[i * m + j];
+            for k in 0..j {
+                s -= a[i * m + k] * a[j * m + k];
+            }
+            a[i * m + j] = s / d;
+        }
+    }
+    true
+}
+
+/// Solves `L Lᵀ x = b` with the factor of [`cholesky_in_place`] (`m = 3 · b.len()`).
+fn cholesky_solve(l: &[f64], b: &[DVec3], x: &mut [DVec3]) {
+    let m = 3 * b.len();
+    let flat = |v: &[DVec3], i: usize| v[i / 3][i % 3];
+    // Forward substitution into x (as flat components), then backward in place.
+    for i in 0..m {
+        let mut s = flat(b, i);
+        for k in 0..i {
+            s -= l[i * m + k] * flat(x, k);
+        }
+        x[i / 3][i % 3] = s / l[i * m + i];
+    }
+    for i in (0..m).rev() {
+        let mut s = flat(x, i);
+        for k in i + 1..m {
+            s -= l[k * m + i] * flat(x, k);
+        }
+        x[i / 3][i % 3] = s / l[i * m + i];
+    }
+}
+
+/// What one [`Pcg::solve`] did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CgStats {
+    /// Iterations run.
+    pub iterations: u32,
+    /// Final residual norm over the initial one.
+    pub reduction: f64,
+}
+
+/// Conjugate gradients preconditioned by a V-cycle; owns its work vectors.
+#[derive(Clone, Debug, Default)]
+pub struct Pcg {
+    r: Vec<DVec3>,
+    z: Vec<DVec3>,
+    p: Vec<DVec3>,
+    q: Vec<DVec3>,
+}
+
+fn dot(a: &[DVec3], b: &[DVec3]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x.dot(*y)).sum()
+}
+
+impl Pcg {
+    /// Work vectors for `n` block rows.
+    pub fn new(n: usize) -> Pcg {
+        Pcg {
+            r: vec![DVec3::ZERO; n],
+            z: vec![DVec3::ZERO; n],
+            p: vec![DVec3::ZERO; n],
+            q: vec![DVec3::ZERO; n],
+        }
+    }
+
+    /// At most `max_iterations` of CG on `A x = b` from `x = 0` (A: the hierarchy's fine
+    /// matrix, updated), preconditioned by one V-cycle, stopping early once the residual is
+    /// `tolerance` times the initial one.
+    pub fn solve(
+        &mut self,
+        h: &mut Hierarchy,
+        b: &[DVec3],
+        x: &mut [DVec3],
+        max_iterations: u32,
+        tolerance: f64,
+    ) -> CgStats {
+        x.iter_mut().for_each(|v| *v = DVec3::ZERO);
+        self.r.copy_from_slice(b);
+        let r0 = dot(&self.r, &self.r).sqrt();
+        let mut stats = CgStats {
+            iterations: 0,
+            reduction: 1.0,
+        };
+        if !(r0 > 0.0 && r0.is_finite()) {
+            stats.reduction = if r0 == 0.0 { 0.0 } else { f64::NAN };
+            return stats;
+        }
+        h.v_cycle(&self.r, &mut self.z);
+        self.p.copy_from_slice(&self.z);
+        let mut rz = dot(&self.r, &self.z);
+        for _ in 0..max_iterations {
+            h.fine().mul(&self.p, &mut self.q);
+            let pq = dot(&self.p, &self.q);
+            if !(pq > 0.0 && rz.is_finite()) {
+                break;
+            }
+            let alpha = rz / pq;
+            for ((xi, pi), (ri, qi)) in x
+                .iter_mut()
+                .zip(&self.p)
+                .zip(self.r.iter_mut().zip(&self.q))
+            {
+                *xi += *pi * alpha;
+                *ri -= *qi * alpha;
+            }
+            stats.iterations += 1;
+            let rn = dot(&self.r, &self.r).sqrt();
+            stats.reduction = rn / r0;
+            if stats.reduction <= tolerance || stats.iterations == max_iterations {
+                break;
+            }
+            h.v_cycle(&self.r, &mut self.z);
+            let rz_new = dot(&self.r, &self.z);
+            let beta = rz_new / rz;
+            rz = rz_new;
+            for (pi, zi) in self.p.iter_mut().zip(&self.z) {
+                *pi = *zi + *pi * beta;
+            }
+        }
+        stats
+    }
+}

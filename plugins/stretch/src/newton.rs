@@ -1,0 +1,479 @@
+//! The `stretch_newton` kind: every edge of the target objects as a stiff spring, solved
+//! **globally** — one Newton step on the substep's implicit-Euler problem per pass, its linear
+//! system solved by conjugate gradients preconditioned by a geometric multigrid V-cycle
+//! ([`crate::multigrid`]). The paper's linearised alternative to Gauss-Seidel (Goldenthal et
+//! al. 2007 solve the same constraints' linearisation globally), for hard cloth where edge
+//! passes need hundreds of substeps.
+//!
+//! ## The problem a pass solves
+//!
+//! With the positions `x̃` at the start of the substep's passes (the core's prediction), the
+//! substep `h`, the masses `mᵢ` of the group's free particles and each edge's spring
+//! `k = 1/α` (`α`: `compliance` when stretched, `compression_compliance` when compressed, m/N):
+//!
+//! ```text
+//! Φ(x) = Σᵢ mᵢ |xᵢ − x̃ᵢ|² / (2h²) + Σₑ k (lₑ − Lₑ)² / 2
+//! ```
+//!
+//! whose minimiser is the implicit-Euler substep of the springs (alone, it is exact: the
+//! stationarity condition `M(x − x̃)/h² = −∇E` is the backward-Euler step). A pass is one
+//! Newton step on `Φ` from the current positions:
+//!
+//! ```text
+//! H s = −∇Φ,   H = M/h² + Σₑ k [n nᵀ + max(0, 1 − L/l)(I − n nᵀ)]  (edge blocks, ±)
+//! ```
+//!
+//! The geometric stiffness `(1 − L/l)(I − n nᵀ)` is kept only for a stretched edge (clamped to
+//! tension), so `H` is always symmetric positive definite: the mass term alone makes it so.
+//! `H s = −∇Φ` is solved approximately, by at most `cg_iterations` of preconditioned conjugate
+//! gradients from `s = 0` (inexact Newton: a few iterations that cut the residual ~100× give
+//! the exact solve's strain, measured in `bench/newton_pcg`), and a backtracking line search
+//! halves the step until `Φ` decreases (at most 30 halvings; no decrease, no move). Pins
+//! (inverse mass 0 at build time) are not unknowns: they hold the cloth wherever the scene
+//! moves them.
+//!
+//! ## The preconditioner
+//!
+//! A geometric multigrid built once from the target objects' edge graph over their free
+//! particles, as [`crate::hierarchy`] coarsens it: each level keeps a maximal independent set
+//! of the finer level's particles; a dropped particle is interpolated from its kept neighbours
+//! weighted by inverse rest length (the same weights for x, y and z). The coarse operators are
+//! Galerkin products `Pᵀ H P`, recomputed from each step's Hessian through a map built once;
+//! the coarsest level (at most about `4 × coarsest` particles) is solved by a dense Cholesky
+//! factor. One V-cycle is a forward block Gauss-Seidel sweep, the coarse correction and a
+//! backward sweep. Nothing is allocated after the group is built.
+//!
+//! ## When to use it
+//!
+//! For cloth that must not stretch, at few substeps. Its strain is set by the number of
+//! Newton steps (substeps × passes), not by the resolution: measured on the peers' drape in
+//! the README (part 6 of the benchmark) and in `bench/newton_pcg/README.md`. Each pass costs
+//! far more than a Gauss-Seidel pass — an assembly, a Galerkin update, a few V-cycles — so at
+//! loose tolerances plain `stretch` with substeps is cheaper.
+//!
+//! It is a penalty method: `compliance` must be positive. Its default, 1e-8 m/N, lets a
+//! 1 m, 1 kg cloth hanging from two corners stretch about 1e-5 at the pins. The default order
+//! and importance are those of `stretch` (0 and 1): a pass per substep is a Newton step.
+//! Other groups (bend, collisions) run between the passes as usual; a pass measures inertia
+//! from `x̃`, so it partly undoes what they moved within the substep in proportion to the
+//! masses — as a spring force would.
+//!
+//! ## Residual and stats
+//!
+//! The residual is the strain `|l − L|/L` of the edges (dimensionless; for a zero rest
+//! length, the length itself, m) and the springs' energy `Σ ½ k C²` (J). `report` gives the
+//! last Newton step's CG iterations (`cg_iterations`) and residual reduction
+//! (`cg_reduction`), the line search's halvings in the frame so far (`halvings`) and the
+//! hierarchy's levels and operator complexity.
+
+use nucleus_sdk::params::{self, ParamSpec};
+use nucleus_sdk::prelude::*;
+use serde::Deserialize;
+
+use crate::distance::MIN_LENGTH;
+use crate::multigrid::{BlockMatrix, CgStats, Hierarchy, Pcg, Prolongation};
+use glam::DMat3;
+
+/// The parameters of the `stretch_newton` kind.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NewtonParams {
+    /// Compliance when stretched (m/N); positive.
+    pub compliance: f64,
+    /// Compliance when compressed (m/N); positive.
+    pub compression_compliance: f64,
+    /// Rest length as a multiple of the rest shape's edge length.
+    pub rest_length_scale: f64,
+    /// Most conjugate-gradient iterations per Newton step.
+    pub cg_iterations: i64,
+    /// CG stops once the residual is this fraction of the initial one.
+    pub cg_tolerance: f64,
+    /// Coarsening stops once a level would have fewer particles than this.
+    pub coarsest: i64,
+}
+
+impl NewtonParams {
+    /// The parameter descriptions.
+    pub fn specs() -> Vec<ParamSpec> {
+        vec![
+            ParamSpec::number("compliance", 1e-8)
+                .unit("m/N")
+                .doc("compliance of each edge's spring when stretched (inverse stiffness); positive: a penalty method")
+                .range(1e-15, 1e6),
+            ParamSpec::number("compression_compliance", 1e-8)
+                .unit("m/N")
+                .doc("compliance when compressed; set it high to let cloth buckle")
+                .range(1e-15, 1e6),
+            ParamSpec::number("rest_length_scale", 1.0)
+                .doc("rest length of each edge as a multiple of its length in the rest shape")
+                .range(1e-6, 1e6),
+            ParamSpec::integer("cg_iterations", 5)
+                .doc("most preconditioned conjugate-gradient iterations per Newton step (one step per pass)")
+                .range(1.0, 10000.0),
+            ParamSpec::number("cg_tolerance", 1e-3)
+                .doc("CG stops early once its residual is this fraction of the initial one")
+                .range(0.0, 1.0),
+            ParamSpec::integer("coarsest", 16)
+                .doc("the multigrid coarsens until a level would have fewer free particles than this; the coarsest level is factored densely")
+                .range(2.0, 4096.0),
+        ]
+    }
+}
+
+/// Most halvings of the line search before a step is abandoned.
+pub const MAX_HALVINGS: u32 = 30;
+
+/// An edge's spring: energy `k C²/2`, the force on its second end `−k C n` (its first end
+/// gets the opposite), and the stiffness block `K` (the Hessian's `(b, b)` and `(a, a)`
+/// blocks; `−K` off the diagonal). `d = xb − xa`; `None` when the edge has no direction.
+#[inline]
+pub fn spring(d: DVec3, rest: f64, k_stretch: f64, k_compress: f64) -> Option<(f64, DVec3, DMat3)> {
+    let l = d.length();
+    if !(l > MIN_LENGTH && l.is_finite()) {
+        return None;
+    }
+    let n = d / l;
+    let c = l - rest;
+    let k = if c >= 0.0 { k_stretch } else { k_compress };
+    let nn = DMat3::from_cols(n * n.x, n * n.y, n * n.z);
+    let geometric = (1.0 - rest / l).max(0.0);
+    let stiffness = (nn + (DMat3::IDENTITY - nn) * geometric) * k;
+    Some((0.5 * k * c * c, -n * (k * c), stiffness))
+}
+
+/// The `stretch_newton` group. Unknowns are the free particles of the target objects, in the
+/// order of the objects and of their particles.
+pub struct NewtonGroup {
+    /// Global index of each unknown.
+    dof: Vec<u32>,
+    /// Edges (global particle indices) with at least one free end, and their rest lengths.
+    edges: Vec<[u32; 2]>,
+    rest: Vec<f64>,
+    /// Per edge, the unknown of each end (`u32::MAX` for a pin) and the slots of its blocks
+    /// `(a, a)`, `(b, b)`, `(a, b)`, `(b, a)` in the fine matrix (`u32::MAX` where absent).
+    ends: Vec<[u32; 2]>,
+    slots: Vec<[u32; 4]>,
+    k_stretch: f64,
+    k_compress: f64,
+    cg_iterations: u32,
+    cg_tolerance: f64,
+    /// `x̃` of each unknown, set in `begin_substep`.
+    target: Vec<DVec3>,
+    gradient: Vec<DVec3>,
+    step: Vec<DVec3>,
+    hierarchy: Hierarchy,
+    pcg: Pcg,
+    max_index: Option<u32>,
+    last: CgStats,
+    halvings: u32,
+    last_frame: u64,
+}
+
+impl NewtonGroup {
+    /// Builds the unknowns, the edges, the fine matrix's pattern and the hierarchy.
+    pub fn new(p: &NewtonParams, scene: &SceneView<'_>) -> Result<Self, PluginError> {
+        let rest_x = scene.rest_positions();
+        let w = scene.inv_mass.as_slice();
+        let mut unknown = vec![u32::MAX; rest_x.len().min(w.len())];
+        let mut dof = Vec::new();
+        let mut edges = Vec::new();
+        let mut rest = Vec::new();
+        let mut max_index = None;
+        for (_, object) in scene.unique_targets()? {
+            let range = object.particles();
+            for i in range.clone() {
+                if w[i] > 0.0 && unknown[i] == u32::MAX {
+                    unknown[i] = dof.len() as u32;
+                    dof.push(i as u32);
+                }
+            }
+            for &[i, j] in object.edges.as_slice() {
+                if !range.contains(&(i as usize)) || !range.contains(&(j as usize)) || i == j {
+                    return Err(PluginError::bad_object(
+                        object.name.as_str(),
+                        format!(
+                            "edge ({i}, {j}) is outside the object or joins a particle to itself"
+                        ),
+                    ));
+                }
+                let len = (rest_x[j as usize] - rest_x[i as usize]).length() * p.rest_length_scale;
+                if !len.is_finite() {
+                    return Err(PluginError::bad_object(
+                        object.name.as_str(),
+                        format!("edge ({i}, {j}) has a non-finite rest length"),
+                    ));
+                }
+                if w[i as usize] > 0.0 || w[j as usize] > 0.0 {
+                    edges.push([i, j]);
+                    rest.push(len);
+                }
+            }
+            if !range.is_empty() {
+                max_index = max_index.max(Some(range.end as u32 - 1));
+            }
+        }
+        let ends: Vec<[u32; 2]> = edges
+            .iter()
+            .map(|&[i, j]| [unknown[i as usize], unknown[j as usize]])
+            .collect();
+        let free_pairs: Vec<(u32, u32)> = ends
+            .iter()
+            .filter(|e| e[0] != u32::MAX && e[1] != u32::MAX)
+            .map(|e| (e[0], e[1]))
+            .collect();
+        let fine = BlockMatrix::with_pattern(dof.len(), free_pairs.iter().copied());
+        let slot = |a: u32, b: u32| {
+            if a == u32::MAX || b == u32::MAX {
+                u32::MAX
+            } else {
+                fine.slot(a, b).map_or(u32::MAX, |s| s as u32)
+            }
+        };
+        let slots = ends
+            .iter()
+            .map(|&[a, b]| [slot(a, a), slot(b, b), slot(a, b), slot(b, a)])
+            .collect();
+        // The free particles' edge graph, coarsened as the hierarchy kind does.
+        let mut graph: Vec<Vec<(u32, f64)>> = vec![Vec::new(); dof.len()];
+        for &(a, b) in &free_pairs {
+            let len = (rest_x[dof[b as usize] as usize] - rest_x[dof[a as usize] as usize])
+                .length()
+                .max(MIN_LENGTH);
+            graph[a as usize].push((b, len));
+            graph[b as usize].push((a, len));
+        }
+        let coarsest = p.coarsest.max(2) as usize;
+        let c = crate::hierarchy::coarsen(&graph, &[], 64, coarsest);
+        let mut fine_n = dof.len();
+        let mut prolongations = Vec::new();
+        for (kept, dropped) in c.kept.iter().zip(&c.dropped) {
+            prolongations.push(Prolongation::from_coarsening(fine_n, kept, dropped));
+            fine_n = kept.len();
+        }
+        let n = dof.len();
+        Ok(NewtonGroup {
+            target: vec![DVec3::ZERO; n],
+            gradient: vec![DVec3::ZERO; n],
+            step: vec![DVec3::ZERO; n],
+            hierarchy: Hierarchy::new(fine, prolongations),
+            pcg: Pcg::new(n),
+            dof,
+            edges,
+            rest,
+            ends,
+            slots,
+            k_stretch: 1.0 / p.compliance,
+            k_compress: 1.0 / p.compression_compliance,
+            cg_iterations: p.cg_iterations.max(1) as u32,
+            cg_tolerance: p.cg_tolerance,
+            max_index,
+            last: CgStats::default(),
+            halvings: 0,
+            last_frame: u64::MAX,
+        })
+    }
+
+    /// The hierarchy's block rows per level, finest first.
+    pub fn level_sizes(&self) -> Vec<usize> {
+        self.hierarchy.sizes()
+    }
+
+    /// `Φ` at the positions `x` moved by `t · step` at the unknowns.
+    fn objective(&self, x: &[DVec3], inv_mass: &[f64], h: f64, t: f64) -> f64 {
+        let at = |i: u32, u: u32| {
+            if u == u32::MAX {
+                x[i as usize]
+            } else {
+                x[i as usize] + self.step[u as usize] * t
+            }
+        };
+        let mut inertia = 0.0;
+        for (u, &i) in self.dof.iter().enumerate() {
+            let m = mass(inv_mass[i as usize]);
+            inertia += m * (at(i, u as u32) - self.target[u]).length_squared();
+        }
+        let mut energy = 0.0;
+        for ((&[i, j], &[a, b]), &rest) in self.edges.iter().zip(&self.ends).zip(&self.rest) {
+            let c = (at(j, b) - at(i, a)).length() - rest;
+            energy +=
+                0.5 * if c >= 0.0 {
+                    self.k_stretch
+                } else {
+                    self.k_compress
+                } * c
+                    * c;
+        }
+        inertia / (2.0 * h * h) + energy
+    }
+
+    /// Assembles `∇Φ` (into `gradient`) and `H` (into the hierarchy's fine matrix).
+    fn assemble(&mut self, x: &[DVec3], inv_mass: &[f64], h: f64) {
+        let fine = self.hierarchy.fine_mut();
+        fine.zero();
+        let inv_h2 = 1.0 / (h * h);
+        for (u, &i) in self.dof.iter().enumerate() {
+            let m = mass(inv_mass[i as usize]) * inv_h2;
+            self.gradient[u] = (x[i as usize] - self.target[u]) * m;
+            fine.val[fine.diag[u] as usize] = DMat3::from_diagonal(DVec3::splat(m));
+        }
+        for (e, &[i, j]) in self.edges.iter().enumerate() {
+            let Some((_, force_b, k)) = spring(
+                x[j as usize] - x[i as usize],
+                self.rest[e],
+                self.k_stretch,
+                self.k_compress,
+            ) else {
+                continue;
+            };
+            let [a, b] = self.ends[e];
+            if a != u32::MAX {
+                self.gradient[a as usize] += force_b;
+            }
+            if b != u32::MAX {
+                self.gradient[b as usize] -= force_b;
+            }
+            let [aa, bb, ab, ba] = self.slots[e];
+            for (s, block) in [(aa, k), (bb, k), (ab, -k), (ba, -k)] {
+                if s != u32::MAX {
+                    fine.val[s as usize] += block;
+                }
+            }
+        }
+    }
+}
+
+/// The mass of a particle of inverse mass `w`; a particle pinned since the group was built
+/// counts as very heavy, so the step leaves it (almost) in place.
+#[inline]
+fn mass(w: f64) -> f64 {
+    if w > 0.0 {
+        1.0 / w
+    } else {
+        1e30
+    }
+}
+
+impl ConstraintGroup for NewtonGroup {
+    fn stages(&self) -> Stages {
+        Stages::PROJECT | Stages::BEGIN_SUBSTEP
+    }
+
+    fn len(&self) -> usize {
+        if self.dof.is_empty() {
+            0
+        } else {
+            self.edges.len()
+        }
+    }
+
+    /// Records `x̃`, the positions the substep's inertia is measured from.
+    fn begin_substep(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
+        ctx.check_holds(self.max_index)?;
+        let x = ctx.positions();
+        for (t, &i) in self.target.iter_mut().zip(&self.dof) {
+            *t = x[i as usize];
+        }
+        Ok(())
+    }
+
+    /// One Newton step on `Φ`: assembly, Galerkin update, preconditioned CG, line search.
+    fn project(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
+        ctx.check_holds(self.max_index)?;
+        let h = ctx.substep_length()?;
+        if ctx.frame != self.last_frame {
+            self.last_frame = ctx.frame;
+            self.halvings = 0;
+        }
+        let p = ctx.particles();
+        self.assemble(p.x, p.inv_mass, h);
+        if !self.hierarchy.update() {
+            return Err(PluginError::new(
+                PluginError::FAILED,
+                "",
+                "stretch_newton: the Hessian is not positive definite (non-finite positions or masses?)",
+            ));
+        }
+        for g in self.gradient.iter_mut() {
+            *g = -*g;
+        }
+        let mut step = std::mem::take(&mut self.step);
+        self.last = self.pcg.solve(
+            &mut self.hierarchy,
+            &self.gradient,
+            &mut step,
+            self.cg_iterations,
+            self.cg_tolerance,
+        );
+        self.step = step;
+        let f0 = self.objective(p.x, p.inv_mass, h, 0.0);
+        let mut t = 1.0;
+        let mut halvings = 0;
+        // Halves while Φ does not decrease, or is NaN (a step through coincident particles).
+        loop {
+            if self.objective(p.x, p.inv_mass, h, t) <= f0 {
+                break;
+            }
+            halvings += 1;
+            if halvings > MAX_HALVINGS {
+                t = 0.0;
+                break;
+            }
+            t *= 0.5;
+        }
+        self.halvings += halvings.min(MAX_HALVINGS);
+        if t > 0.0 {
+            for (&i, s) in self.dof.iter().zip(&self.step) {
+                p.x[i as usize] += *s * t;
+            }
+        }
+        Ok(())
+    }
+
+    /// Strain `|l − L|/L` of the edges (the length itself for a zero rest length) and the
+    /// springs' energy.
+    fn residual(&self, ctx: &SolveContext<'_>) -> Residual {
+        let x = ctx.positions();
+        let (mut max, mut sq, mut energy, mut n) = (0.0f64, 0.0, 0.0, 0u64);
+        for (&[i, j], &rest) in self.edges.iter().zip(&self.rest) {
+            let (Some(a), Some(b)) = (x.get(i as usize), x.get(j as usize)) else {
+                continue;
+            };
+            let l = (*b - *a).length();
+            let c = l - rest;
+            let r = if rest > 0.0 { c.abs() / rest } else { l };
+            max = max.max(r);
+            sq += r * r;
+            energy +=
+                0.5 * if c >= 0.0 {
+                    self.k_stretch
+                } else {
+                    self.k_compress
+                } * c
+                    * c;
+            n += 1;
+        }
+        Residual {
+            count: n,
+            max,
+            rms: if n > 0 { (sq / n as f64).sqrt() } else { 0.0 },
+            energy,
+        }
+    }
+
+    fn report(&self, _ctx: &SolveContext<'_>, out: &mut Vec<(String, f64)>) {
+        out.push(("cg_iterations".into(), self.last.iterations as f64));
+        out.push(("cg_reduction".into(), self.last.reduction));
+        out.push(("halvings".into(), self.halvings as f64));
+        out.push(("levels".into(), self.hierarchy.depth() as f64));
+        out.push((
+            "operator_complexity".into(),
+            self.hierarchy.operator_complexity(),
+        ));
+    }
+}
+
+/// The factory of the `stretch_newton` kind.
+pub fn build(json: &str, scene: &SceneView<'_>) -> Result<Box<dyn ConstraintGroup>, PluginError> {
+    let p: NewtonParams = params::parse(json)?;
+    Ok(Box::new(NewtonGroup::new(&p, scene)?))
+}
