@@ -1907,3 +1907,168 @@ fn the_closest_point_on_a_triangle_is_never_beaten_by_sampling() {
     );
     assert!((q - DVec3::new(0.5, 0.0, 0.0)).length() < 1e-15, "{q}");
 }
+
+// ---------------------------------------------------------------------------------------------
+// The global Newton solve of stretch (`stretch_newton`) at the extremes
+
+/// A 1 m cloth of `n × n` vertices pinned at the corners of one edge, its edges solved by
+/// `stretch_newton` (compliance `compliance` m/N), with the given solver settings and the
+/// object's `extra` TOML lines (velocity, mass maps).
+fn newton_cloth(
+    n: u32,
+    frame_rate: f64,
+    substeps: u32,
+    iterations: u32,
+    frames: u32,
+    compliance: f64,
+    extra: &str,
+) -> String {
+    format!(
+        r#"
+[solver]
+frame_rate = {frame_rate}
+frames = {frames}
+substeps = {substeps}
+iterations = {iterations}
+[[objects]]
+name = "cloth"
+pins = ["corners:row0"]
+{extra}
+[objects.grid]
+size = [1.0, 1.0]
+resolution = [{n}, {n}]
+[[constraints]]
+kind = "stretch_newton"
+params = {{ compliance = {compliance:e}, compression_compliance = {compliance:e} }}
+"#
+    )
+}
+
+/// The default solves (at most 5 CG iterations a Newton step, tolerance 1e-3) are inexact,
+/// and with stiff springs the error they leave does work: the hanging cloth swings higher and
+/// higher. Measured 2026-11-23 (12 x 12 cloth, 2 substeps, 60 frames, compliance 1e-8): the
+/// energy grows 76 %/s of the energy in play at 1 pass, 50 %/s at 2, 29 %/s at 4 and 20 %/s at
+/// 16; with exact solves it does not (next test), nor with compliance 1e-5.
+#[test]
+#[ignore = "fails: stretch_newton's inexact CG solves at compliance 1e-8 gain energy (76 %/s of the energy in play at 1 pass, 20 %/s at 16); exact solves and compliance 1e-5 do not (the tests below)"]
+fn newton_stretch_with_inexact_solves_never_gains_energy() {
+    for (name, iterations) in [
+        ("stretch_newton, 1 pass, 12 x 12 cloth, compliance 1e-8", 1),
+        (
+            "stretch_newton, 16 passes, 12 x 12 cloth, compliance 1e-8",
+            16,
+        ),
+    ] {
+        check(
+            Case::new(
+                name,
+                newton_cloth(12, 60.0, 2, iterations, 60, 1e-8, ""),
+                Energy::Conserved { from_frame: 0 },
+                WHIP,
+            )
+            .last(|sim| residual_figure(sim, "stretch_newton")),
+        );
+    }
+}
+
+/// Implicit Euler solved exactly only dissipates, at any stiffness; so do the default solves
+/// at a softer compliance, and at 1,000 passes.
+#[test]
+fn newton_stretch_with_exact_solves_or_softer_springs_never_gains_energy() {
+    let exact = newton_cloth(12, 60.0, 2, 8, 60, 1e-8, "").replace(
+        "compression_compliance = 1e-8 }",
+        "compression_compliance = 1e-8, cg_iterations = 40, cg_tolerance = 1e-9 }",
+    );
+    for (name, scene) in [
+        (
+            "stretch_newton, 8 exact passes (CG to 1e-9), 12 x 12 cloth, compliance 1e-8",
+            exact,
+        ),
+        (
+            "stretch_newton, 1 pass, 12 x 12 cloth, compliance 1e-5",
+            newton_cloth(12, 60.0, 2, 1, 60, 1e-5, ""),
+        ),
+        (
+            "stretch_newton, 1,000 passes, 8 x 8 cloth, compliance 1e-8",
+            newton_cloth(8, 60.0, 2, 1000, 5, 1e-8, ""),
+        ),
+    ] {
+        check(
+            Case::new(name, scene, Energy::Conserved { from_frame: 0 }, WHIP)
+                .last(|sim| residual_figure(sim, "stretch_newton")),
+        );
+    }
+}
+
+/// A cloth thrown at 1e4 m/s past its pins, and one whose hem is 1e6 times heavier than the
+/// rest: finite, no energy gained, no particle faster than the bound.
+#[test]
+fn newton_stretch_at_1e4_m_s_and_mass_ratio_1e6_stays_bounded() {
+    check(Case::new(
+        "stretch_newton, 16 x 16 cloth thrown at 1e4 m/s, 2 x 2",
+        newton_cloth(16, 60.0, 2, 2, 10, 1e-8, "velocity = [0.0, -10000.0, 0.0]"),
+        Energy::Conserved { from_frame: 0 },
+        WHIP,
+    ));
+    check(Case::new(
+        "stretch_newton, 16 x 16 cloth, hem 1e6 times heavier, 2 x 2",
+        newton_cloth(
+            16,
+            60.0,
+            2,
+            2,
+            60,
+            1e-8,
+            r#"mass_maps = [{ vertices = ["edge:rowN"], scale = 1e6 }]"#,
+        ),
+        Energy::Conserved { from_frame: 0 },
+        Speed::Energy,
+    ));
+}
+
+/// The stiffest springs the kind accepts (1e-15 m/N) and one substep of 1 s stay finite and
+/// within the speed bound; their energy is not checked here (see the ignored test below).
+#[test]
+fn newton_stretch_at_the_least_compliance_and_1_s_substeps_stays_finite() {
+    for (name, scene) in [
+        (
+            "stretch_newton, compliance 1e-15, 16 x 16 cloth, 2 x 2",
+            newton_cloth(16, 60.0, 2, 2, 30, 1e-15, ""),
+        ),
+        (
+            "h = 1 s, 10 passes, 8 x 8 cloth (stretch_newton)",
+            newton_cloth(8, 1.0, 1, 10, 30, 1e-8, ""),
+        ),
+    ] {
+        check(
+            Case::new(
+                name,
+                scene,
+                Energy::Source("not checked: see the ignored test"),
+                WHIP,
+            )
+            .last(|sim| residual_figure(sim, "stretch_newton")),
+        );
+    }
+}
+
+/// The same two at the energy check: both gain energy (inexact solves, as above).
+#[test]
+#[ignore = "fails: at compliance 1e-15 (2 x 2) the energy grows 63 %/s of the energy in play; at h = 1 s with 10 passes 21 %/s (2 passes: strain 150 %); inexact CG, as newton_stretch_with_inexact_solves_never_gains_energy"]
+fn newton_stretch_at_the_least_compliance_and_1_s_substeps_never_gains_energy() {
+    for (name, scene) in [
+        (
+            "stretch_newton, compliance 1e-15, 16 x 16 cloth, 2 x 2 (energy)",
+            newton_cloth(16, 60.0, 2, 2, 30, 1e-15, ""),
+        ),
+        (
+            "h = 1 s, 10 passes, 8 x 8 cloth (stretch_newton, energy)",
+            newton_cloth(8, 1.0, 1, 10, 30, 1e-8, ""),
+        ),
+    ] {
+        check(
+            Case::new(name, scene, Energy::Conserved { from_frame: 0 }, WHIP)
+                .last(|sim| residual_figure(sim, "stretch_newton")),
+        );
+    }
+}

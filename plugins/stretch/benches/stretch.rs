@@ -4,6 +4,10 @@
 //! The pass runs on a thread team of `RAYON_NUM_THREADS` (default: the machine's cores), lent
 //! to the context as the host lends its own. `project_hard_stars` is the same pass with a star
 //! at every particle (`blocks = "stars"`): the same constraints, each solved twice.
+//! `project_newton` is one pass of the `stretch_newton` group over the same cloth — one Newton
+//! step: assembly, Galerkin update of the multigrid, five preconditioned CG iterations
+//! (`cg_tolerance = 0`, so never fewer) and the line search — from the same stretched state
+//! every time (the positions are copied back before each pass, ~20 µs of the figure).
 
 use std::time::Duration;
 
@@ -53,6 +57,10 @@ fn cloth() -> Cloth {
 }
 
 fn group(cloth: &Cloth, params: &str) -> GroupBox {
+    group_of(cloth, "stretch", params)
+}
+
+fn group_of(cloth: &Cloth, kind: &str, params: &str) -> GroupBox {
     let objects = [ObjectView {
         edges: RSlice::from_slice(&cloth.edges),
         triangles: RSlice::from_slice(&cloth.triangles),
@@ -64,9 +72,9 @@ fn group(cloth: &Cloth, params: &str) -> GroupBox {
         substeps: 10,
         ..SceneView::new(&objects, &[0], &cloth.rest, &cloth.inv_mass)
     };
-    match nucleus_stretch::nucleus_plugin().create_group("stretch", params, &scene) {
+    match nucleus_stretch::nucleus_plugin().create_group(kind, params, &scene) {
         Ok(g) => g,
-        Err(e) => panic!("cannot build the stretch group: {e}"),
+        Err(e) => panic!("cannot build the {kind} group: {e}"),
     }
 }
 
@@ -120,6 +128,32 @@ fn project_pass(c: &mut Criterion) {
             b.iter(|| black_box(g.project(black_box(&mut ctx))).is_ok())
         });
     }
+    let stretched = x.clone();
+    let mut g = group_of(&cloth, "stretch_newton", r#"{"cg_tolerance": 0}"#);
+    bench.throughput(Throughput::Elements(g.constraint_count()));
+    let mut ctx = SolveContext {
+        gravity: [0.0, 0.0, -9.81],
+        substeps: 10,
+        team: nucleus_sdk::TeamRef::new(&team),
+        ..SolveContext::new(
+            &mut x,
+            &mut v,
+            &x0,
+            &cloth.inv_mass,
+            &object,
+            &flags,
+            1.0 / 240.0,
+        )
+    };
+    if let Err(e) = g.begin_substep(&mut ctx).into_result() {
+        panic!("begin_substep failed: {e}");
+    }
+    bench.bench_function("project_newton", |b| {
+        b.iter(|| {
+            ctx.x.as_mut_slice().copy_from_slice(&stretched);
+            black_box(g.project(black_box(&mut ctx))).is_ok()
+        })
+    });
     bench.finish();
 }
 

@@ -71,8 +71,14 @@ use nucleus_sdk::prelude::*;
 use serde::Deserialize;
 
 use crate::distance::MIN_LENGTH;
-use crate::multigrid::{BlockMatrix, CgStats, Hierarchy, Pcg, Prolongation};
+use crate::multigrid::{
+    for_parts, BlockMatrix, CgStats, Hierarchy, Pcg, Prolongation, PARALLEL_MIN_ROWS,
+};
 use glam::DMat3;
+use nucleus_sdk::team::{span, SharedArray, TeamRef};
+
+/// Unknowns or edges per chunk of the objective's sum (see [`NewtonGroup::objective`]).
+pub const CHUNK: usize = 2048;
 
 /// The parameters of the `stretch_newton` kind.
 #[derive(Clone, Debug, PartialEq, Deserialize)]
@@ -107,15 +113,15 @@ impl NewtonParams {
             ParamSpec::number("rest_length_scale", 1.0)
                 .doc("rest length of each edge as a multiple of its length in the rest shape")
                 .range(1e-6, 1e6),
-            ParamSpec::integer("cg_iterations", 5)
+            ParamSpec::integer("cg_iterations", 50)
                 .doc("most preconditioned conjugate-gradient iterations per Newton step (one step per pass)")
                 .range(1.0, 10000.0),
-            ParamSpec::number("cg_tolerance", 1e-3)
+            ParamSpec::number("cg_tolerance", 1e-6)
                 .doc("CG stops early once its residual is this fraction of the initial one")
                 .range(0.0, 1.0),
             ParamSpec::integer("coarsest", 16)
-                .doc("the multigrid coarsens until a level would have fewer free particles than this; the coarsest level is factored densely")
-                .range(2.0, 4096.0),
+                .doc("the multigrid coarsens until a level would have fewer free particles than this; the coarsest level (up to about 4 times as many) is factored densely at every Newton step")
+                .range(2.0, 256.0),
         ]
     }
 }
@@ -137,7 +143,11 @@ pub fn spring(d: DVec3, rest: f64, k_stretch: f64, k_compress: f64) -> Option<(f
     let k = if c >= 0.0 { k_stretch } else { k_compress };
     let nn = DMat3::from_cols(n * n.x, n * n.y, n * n.z);
     let geometric = (1.0 - rest / l).max(0.0);
-    let stiffness = (nn + (DMat3::IDENTITY - nn) * geometric) * k;
+    // Along the edge, the stiffer of the two springs: the piecewise quadratic energy's curvature
+    // jumps at the rest length, and a compressed edge modelled by its soft spring lets the
+    // step overshoot into stretch, where the line search then stalls.
+    let along = k_stretch.max(k_compress);
+    let stiffness = nn * along + (DMat3::IDENTITY - nn) * (geometric * k);
     Some((0.5 * k * c * c, -n * (k * c), stiffness))
 }
 
@@ -149,10 +159,19 @@ pub struct NewtonGroup {
     /// Edges (global particle indices) with at least one free end, and their rest lengths.
     edges: Vec<[u32; 2]>,
     rest: Vec<f64>,
-    /// Per edge, the unknown of each end (`u32::MAX` for a pin) and the slots of its blocks
-    /// `(a, a)`, `(b, b)`, `(a, b)`, `(b, a)` in the fine matrix (`u32::MAX` where absent).
+    /// Per edge, the unknown of each end (`u32::MAX` for a pin).
     ends: Vec<[u32; 2]>,
-    slots: Vec<[u32; 4]>,
+    /// Per unknown `u`, `incident[incident_start[u]..incident_start[u + 1]]`: its edges, each
+    /// with the slot of the block `(u, other end)` in the fine matrix (`u32::MAX` if the
+    /// other end is a pin) and whether `u` is the edge's first end.
+    incident_start: Vec<u32>,
+    incident: Vec<(u32, u32, bool)>,
+    /// Per edge, at the current positions: the force on its second end and its stiffness
+    /// block (both zero for an edge without direction).
+    edge_force: Vec<DVec3>,
+    edge_stiffness: Vec<DMat3>,
+    /// The objective's chunk sums.
+    partial: Vec<f64>,
     k_stretch: f64,
     k_compress: f64,
     cg_iterations: u32,
@@ -222,17 +241,28 @@ impl NewtonGroup {
             .map(|e| (e[0], e[1]))
             .collect();
         let fine = BlockMatrix::with_pattern(dof.len(), free_pairs.iter().copied());
-        let slot = |a: u32, b: u32| {
-            if a == u32::MAX || b == u32::MAX {
-                u32::MAX
-            } else {
-                fine.slot(a, b).map_or(u32::MAX, |s| s as u32)
+        let mut lists: Vec<Vec<(u32, u32, bool)>> = vec![Vec::new(); dof.len()];
+        for (e, &[a, b]) in ends.iter().enumerate() {
+            let slot = |u: u32, v: u32| {
+                if v == u32::MAX {
+                    u32::MAX
+                } else {
+                    fine.slot(u, v).map_or(u32::MAX, |s| s as u32)
+                }
+            };
+            if a != u32::MAX {
+                lists[a as usize].push((e as u32, slot(a, b), true));
             }
-        };
-        let slots = ends
-            .iter()
-            .map(|&[a, b]| [slot(a, a), slot(b, b), slot(a, b), slot(b, a)])
-            .collect();
+            if b != u32::MAX {
+                lists[b as usize].push((e as u32, slot(b, a), false));
+            }
+        }
+        let mut incident_start = vec![0u32];
+        let mut incident = Vec::new();
+        for list in lists {
+            incident.extend(list);
+            incident_start.push(incident.len() as u32);
+        }
         // The free particles' edge graph, coarsened as the hierarchy kind does.
         let mut graph: Vec<Vec<(u32, f64)>> = vec![Vec::new(); dof.len()];
         for &(a, b) in &free_pairs {
@@ -260,8 +290,12 @@ impl NewtonGroup {
             dof,
             edges,
             rest,
+            edge_force: vec![DVec3::ZERO; ends.len()],
+            edge_stiffness: vec![DMat3::ZERO; ends.len()],
+            partial: vec![0.0; n.div_ceil(CHUNK) + ends.len().div_ceil(CHUNK)],
             ends,
-            slots,
+            incident_start,
+            incident,
             k_stretch: 1.0 / p.compliance,
             k_compress: 1.0 / p.compression_compliance,
             cg_iterations: p.cg_iterations.max(1) as u32,
@@ -278,8 +312,18 @@ impl NewtonGroup {
         self.hierarchy.sizes()
     }
 
-    /// `Φ` at the positions `x` moved by `t · step` at the unknowns.
-    fn objective(&self, x: &[DVec3], inv_mass: &[f64], h: f64, t: f64) -> f64 {
+    /// `Φ` at the positions `x` moved by `t · step` at the unknowns. The sum is taken in
+    /// chunks of [`CHUNK`] unknowns or edges, each summed in order (the chunks split over the
+    /// team), then the chunks' sums in order: the same bits whatever the thread count.
+    fn objective(
+        &self,
+        team: TeamRef<'_>,
+        x: &[DVec3],
+        inv_mass: &[f64],
+        h: f64,
+        t: f64,
+        partial: &mut [f64],
+    ) -> f64 {
         let at = |i: u32, u: u32| {
             if u == u32::MAX {
                 x[i as usize]
@@ -287,58 +331,108 @@ impl NewtonGroup {
                 x[i as usize] + self.step[u as usize] * t
             }
         };
-        let mut inertia = 0.0;
-        for (u, &i) in self.dof.iter().enumerate() {
-            let m = mass(inv_mass[i as usize]);
-            inertia += m * (at(i, u as u32) - self.target[u]).length_squared();
-        }
-        let mut energy = 0.0;
-        for ((&[i, j], &[a, b]), &rest) in self.edges.iter().zip(&self.ends).zip(&self.rest) {
-            let c = (at(j, b) - at(i, a)).length() - rest;
-            energy +=
-                0.5 * if c >= 0.0 {
-                    self.k_stretch
-                } else {
-                    self.k_compress
-                } * c
-                    * c;
-        }
-        inertia / (2.0 * h * h) + energy
-    }
-
-    /// Assembles `∇Φ` (into `gradient`) and `H` (into the hierarchy's fine matrix).
-    fn assemble(&mut self, x: &[DVec3], inv_mass: &[f64], h: f64) {
-        let fine = self.hierarchy.fine_mut();
-        fine.zero();
-        let inv_h2 = 1.0 / (h * h);
-        for (u, &i) in self.dof.iter().enumerate() {
-            let m = mass(inv_mass[i as usize]) * inv_h2;
-            self.gradient[u] = (x[i as usize] - self.target[u]) * m;
-            fine.val[fine.diag[u] as usize] = DMat3::from_diagonal(DVec3::splat(m));
-        }
-        for (e, &[i, j]) in self.edges.iter().enumerate() {
-            let Some((_, force_b, k)) = spring(
-                x[j as usize] - x[i as usize],
-                self.rest[e],
-                self.k_stretch,
-                self.k_compress,
-            ) else {
-                continue;
-            };
-            let [a, b] = self.ends[e];
-            if a != u32::MAX {
-                self.gradient[a as usize] += force_b;
-            }
-            if b != u32::MAX {
-                self.gradient[b as usize] -= force_b;
-            }
-            let [aa, bb, ab, ba] = self.slots[e];
-            for (s, block) in [(aa, k), (bb, k), (ab, -k), (ba, -k)] {
-                if s != u32::MAX {
-                    fine.val[s as usize] += block;
+        let inertia_chunks = self.dof.len().div_ceil(CHUNK);
+        let chunks = inertia_chunks + self.edges.len().div_ceil(CHUNK);
+        assert!(partial.len() >= chunks);
+        let scale = 1.0 / (2.0 * h * h);
+        let chunk_sum = |c: usize| -> f64 {
+            let mut sum = 0.0;
+            if c < inertia_chunks {
+                let range = c * CHUNK..((c + 1) * CHUNK).min(self.dof.len());
+                for u in range {
+                    let i = self.dof[u];
+                    let m = mass(inv_mass[i as usize]) * scale;
+                    sum += m * (at(i, u as u32) - self.target[u]).length_squared();
+                }
+            } else {
+                let c = c - inertia_chunks;
+                let range = c * CHUNK..((c + 1) * CHUNK).min(self.edges.len());
+                for e in range {
+                    let ([i, j], [a, b]) = (self.edges[e], self.ends[e]);
+                    let c = (at(j, b) - at(i, a)).length() - self.rest[e];
+                    let k = if c >= 0.0 {
+                        self.k_stretch
+                    } else {
+                        self.k_compress
+                    };
+                    sum += 0.5 * k * c * c;
                 }
             }
+            sum
+        };
+        let sums = SharedArray::new(partial);
+        let parts = team.parts();
+        let run = |part: usize| {
+            for c in span(part, parts, chunks) {
+                // SAFETY: `c < chunks <= partial.len()` (asserted); each chunk is one part's.
+                unsafe { *sums.at(c) = chunk_sum(c) };
+            }
+        };
+        if parts > 1 && self.dof.len() + self.edges.len() >= 2 * PARALLEL_MIN_ROWS {
+            team.run(&run);
+        } else {
+            (0..parts).for_each(run);
         }
+        partial[..chunks].iter().sum()
+    }
+
+    /// Assembles `∇Φ` (into `gradient`) and `H` (into the hierarchy's fine matrix): each
+    /// edge's force and stiffness, then each unknown's row from its incident edges, both
+    /// split over the team (every value computed by one part, in a fixed order).
+    fn assemble(&mut self, team: TeamRef<'_>, x: &[DVec3], inv_mass: &[f64], h: f64) {
+        let (ks, kc) = (self.k_stretch, self.k_compress);
+        let (edges, rest) = (&self.edges, &self.rest);
+        assert!(self.edge_force.len() == edges.len() && self.edge_stiffness.len() == edges.len());
+        let forces = SharedArray::new(&mut self.edge_force);
+        let stiffness = SharedArray::new(&mut self.edge_stiffness);
+        for_parts(team, edges.len(), &|range| {
+            for e in range {
+                let [i, j] = edges[e];
+                let (f, k) = spring(x[j as usize] - x[i as usize], rest[e], ks, kc)
+                    .map_or((DVec3::ZERO, DMat3::ZERO), |(_, f, k)| (f, k));
+                // SAFETY: `e < edges.len()`, the length of both arrays (asserted); each part
+                // writes its own edges.
+                unsafe {
+                    *forces.at(e) = f;
+                    *stiffness.at(e) = k;
+                }
+            }
+        });
+        let inv_h2 = 1.0 / (h * h);
+        let (forces, stiffness) = (&self.edge_force, &self.edge_stiffness);
+        let (dof, target) = (&self.dof, &self.target);
+        let (start, incident) = (&self.incident_start, &self.incident);
+        let fine = self.hierarchy.fine_mut();
+        assert!(self.gradient.len() == dof.len() && fine.n() == dof.len());
+        let gradient = SharedArray::new(&mut self.gradient);
+        let (row_start, diag) = (&fine.start, &fine.diag);
+        let vals = SharedArray::new(&mut fine.val);
+        for_parts(team, dof.len(), &|rows| {
+            for u in rows {
+                let i = dof[u] as usize;
+                let m = mass(inv_mass[i]) * inv_h2;
+                let mut g = (x[i] - target[u]) * m;
+                let mut d = DMat3::from_diagonal(DVec3::splat(m));
+                // SAFETY (every access below): the slots of row `u` and `gradient[u]` belong to
+                // this part alone (one part per row), and all are in bounds: the pattern was
+                // built with these rows and slots.
+                for s in row_start[u] as usize..row_start[u + 1] as usize {
+                    unsafe { *vals.at(s) = DMat3::ZERO };
+                }
+                for &(e, slot, first) in &incident[start[u] as usize..start[u + 1] as usize] {
+                    let (f, k) = (forces[e as usize], stiffness[e as usize]);
+                    g += if first { f } else { -f };
+                    d += k;
+                    if slot != u32::MAX {
+                        unsafe { *vals.at(slot as usize) -= k };
+                    }
+                }
+                unsafe {
+                    *vals.at(diag[u] as usize) = d;
+                    *gradient.at(u) = g;
+                }
+            }
+        });
     }
 }
 
@@ -355,7 +449,7 @@ fn mass(w: f64) -> f64 {
 
 impl ConstraintGroup for NewtonGroup {
     fn stages(&self) -> Stages {
-        Stages::PROJECT | Stages::BEGIN_SUBSTEP
+        Stages::PROJECT | Stages::BEGIN_SUBSTEP | Stages::REPORT
     }
 
     fn len(&self) -> usize {
@@ -384,9 +478,10 @@ impl ConstraintGroup for NewtonGroup {
             self.last_frame = ctx.frame;
             self.halvings = 0;
         }
+        let team = ctx.team;
         let p = ctx.particles();
-        self.assemble(p.x, p.inv_mass, h);
-        if !self.hierarchy.update() {
+        self.assemble(team, p.x, p.inv_mass, h);
+        if !self.hierarchy.update(team) {
             return Err(PluginError::new(
                 PluginError::FAILED,
                 "",
@@ -398,6 +493,7 @@ impl ConstraintGroup for NewtonGroup {
         }
         let mut step = std::mem::take(&mut self.step);
         self.last = self.pcg.solve(
+            team,
             &mut self.hierarchy,
             &self.gradient,
             &mut step,
@@ -405,12 +501,13 @@ impl ConstraintGroup for NewtonGroup {
             self.cg_tolerance,
         );
         self.step = step;
-        let f0 = self.objective(p.x, p.inv_mass, h, 0.0);
+        let mut partial = std::mem::take(&mut self.partial);
+        let f0 = self.objective(team, p.x, p.inv_mass, h, 0.0, &mut partial);
         let mut t = 1.0;
         let mut halvings = 0;
         // Halves while Φ does not decrease, or is NaN (a step through coincident particles).
         loop {
-            if self.objective(p.x, p.inv_mass, h, t) <= f0 {
+            if self.objective(team, p.x, p.inv_mass, h, t, &mut partial) <= f0 {
                 break;
             }
             halvings += 1;
@@ -420,6 +517,7 @@ impl ConstraintGroup for NewtonGroup {
             }
             t *= 0.5;
         }
+        self.partial = partial;
         self.halvings += halvings.min(MAX_HALVINGS);
         if t > 0.0 {
             for (&i, s) in self.dof.iter().zip(&self.step) {
@@ -477,3 +575,6 @@ pub fn build(json: &str, scene: &SceneView<'_>) -> Result<Box<dyn ConstraintGrou
     let p: NewtonParams = params::parse(json)?;
     Ok(Box::new(NewtonGroup::new(&p, scene)?))
 }
+#[cfg(test)]
+#[path = "newton_tests.rs"]
+mod tests;

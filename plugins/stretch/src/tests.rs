@@ -194,9 +194,10 @@ fn bad_parameter(mesh: &Mesh, params: &str) -> PluginError {
 fn kind_describes_itself() {
     let info = nucleus_plugin().info();
     assert_eq!(info.name.as_str(), "stretch");
-    let [kind, tether, hierarchy] = info.kinds.as_slice() else {
-        panic!("three kinds expected: stretch, tether and stretch_hierarchy");
+    let [kind, tether, hierarchy, newton] = info.kinds.as_slice() else {
+        panic!("four kinds expected: stretch, tether, stretch_hierarchy and stretch_newton");
     };
+    assert_eq!(newton.name.as_str(), "stretch_newton");
     assert_eq!(tether.name.as_str(), "tether");
     assert_eq!(hierarchy.name.as_str(), "stretch_hierarchy");
     assert_eq!(

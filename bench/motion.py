@@ -1,0 +1,45 @@
+#!/usr/bin/env python3
+"""How a drape run moves, beside its strain: strain alone rewards a cloth held up.
+
+usage: bench/motion.py RUN_DIR [REFERENCE_DIR]
+
+Reads the frame_NNNN.obj files `nucleus run --out DIR` writes and prints the lowest point any
+frame reached (m), the particles' mean height (their centre of mass in the drape, where every
+particle weighs the same) after frames 15, 30, 60 and the last; with a reference run of the
+same scene and resolution, the largest difference of that mean height over the frames and the
+RMS distance between the two runs' particles, averaged over all frames and over the first 30
+(before the swinging cloth's folds, which diverge between any two solvers, dominate it).
+"""
+import os
+import sys
+
+import numpy as np
+
+
+def load(d):
+    """The vertices of every frame_*.obj in `d`, in frame order."""
+    names = sorted(f for f in os.listdir(d) if f.startswith("frame_") and f.endswith(".obj"))
+    return [np.array([list(map(float, line.split()[1:4]))
+                      for line in open(os.path.join(d, f)) if line.startswith("v ")])
+            for f in names]
+
+
+def main():
+    a = load(sys.argv[1])
+    height = np.array([x[:, 1].mean() for x in a])
+    lowest = min(x[:, 1].min() for x in a)
+    frames = [k for k in (14, 29, 59, len(a) - 1) if k < len(a)]
+    msg = f"lowest {lowest:.3f} m; mean height after frames " + "/".join(
+        str(k + 1) for k in frames) + ": " + "/".join(f"{height[k]:.3f}" for k in frames) + " m"
+    if len(sys.argv) > 2:
+        b = load(sys.argv[2])
+        n = min(len(a), len(b))
+        href = np.array([x[:, 1].mean() for x in b[:n]])
+        dist = [np.sqrt(((a[k] - b[k]) ** 2).sum(1).mean()) for k in range(n)]
+        msg += (f"; vs reference: mean height off by {np.abs(height[:n] - href).max():.3f} m at "
+                f"most, RMS distance {np.mean(dist):.3f} m (first 30 frames {np.mean(dist[:30]):.3f})")
+    print(msg)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,738 @@
+//! Unit tests of the multigrid linear algebra: the block matrix against dense products, the
+//! Galerkin coarse operators against explicit `Pᵀ A P`, the dense Cholesky factor, the
+//! V-cycle's symmetry and PCG's convergence on a cloth-like "mass + stiff spring" Hessian.
+
+use super::*;
+use crate::hierarchy::coarsen;
+use nucleus_sdk::team::Team;
+
+/// No thread team: every job on the caller, as below [`PARALLEL_MIN_ROWS`].
+fn serial() -> TeamRef<'static> {
+    TeamRef::serial()
+}
+
+/// An edge graph by local index: `graph[a]` lists `(b, rest length)`.
+type Graph = Vec<Vec<(u32, f64)>>;
+
+/// xorshift64: deterministic pseudo-random numbers for the tests.
+struct Rng(u64);
+
+impl Rng {
+    /// Uniform in [-1, 1).
+    fn next(&mut self) -> f64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+    }
+
+    fn vec3(&mut self) -> DVec3 {
+        DVec3::new(self.next(), self.next(), self.next())
+    }
+
+    fn mat3(&mut self) -> DMat3 {
+        DMat3::from_cols(self.vec3(), self.vec3(), self.vec3())
+    }
+
+    /// A random symmetric positive definite block `R Rᵀ + shift I`.
+    fn spd3(&mut self, shift: f64) -> DMat3 {
+        let r = self.mat3();
+        r * r.transpose() + DMat3::IDENTITY * shift
+    }
+
+    fn vector(&mut self, n: usize) -> Vec<DVec3> {
+        (0..n).map(|_| self.vec3()).collect()
+    }
+}
+
+/// The matrix as a dense `3n × 3n` row-major array.
+fn dense(a: &BlockMatrix) -> Vec<f64> {
+    let m = 3 * a.n();
+    let mut d = vec![0.0; m * m];
+    for i in 0..a.n() {
+        for s in a.start[i] as usize..a.start[i + 1] as usize {
+            let j = a.col[s] as usize;
+            for r in 0..3 {
+                for c in 0..3 {
+                    d[(3 * i + r) * m + 3 * j + c] = a.val[s].col(c)[r];
+                }
+            }
+        }
+    }
+    d
+}
+
+/// `P_s ⊗ I₃` as a dense `3 fine × 3 coarse` row-major array.
+fn dense_prolongation(p: &Prolongation) -> Vec<f64> {
+    let (rows, cols) = (3 * p.fine(), 3 * p.coarse);
+    let mut d = vec![0.0; rows * cols];
+    for i in 0..p.fine() {
+        for e in p.start[i] as usize..p.start[i + 1] as usize {
+            for k in 0..3 {
+                d[(3 * i + k) * cols + 3 * p.col[e] as usize + k] += p.weight[e];
+            }
+        }
+    }
+    d
+}
+
+/// `Aᵀ B` for row-major `a` (`r × ca`) and `b` (`r × cb`).
+fn dense_tn(a: &[f64], b: &[f64], r: usize, ca: usize, cb: usize) -> Vec<f64> {
+    let mut out = vec![0.0; ca * cb];
+    for k in 0..r {
+        for i in 0..ca {
+            let aki = a[k * ca + i];
+            if aki == 0.0 {
+                continue;
+            }
+            for j in 0..cb {
+                out[i * cb + j] += aki * b[k * cb + j];
+            }
+        }
+    }
+    out
+}
+
+/// `A B` for row-major `a` (`r × k`) and `b` (`k × c`).
+fn dense_nn(a: &[f64], b: &[f64], r: usize, k: usize, c: usize) -> Vec<f64> {
+    let mut out = vec![0.0; r * c];
+    for i in 0..r {
+        for l in 0..k {
+            let ail = a[i * k + l];
+            if ail == 0.0 {
+                continue;
+            }
+            for j in 0..c {
+                out[i * c + j] += ail * b[l * c + j];
+            }
+        }
+    }
+    out
+}
+
+fn flat(v: &[DVec3]) -> Vec<f64> {
+    v.iter().flat_map(|p| p.to_array()).collect()
+}
+
+fn norm(v: &[DVec3]) -> f64 {
+    dot(v, v).sqrt()
+}
+
+fn max_abs(v: &[f64]) -> f64 {
+    v.iter().fold(0.0, |m, x| m.max(x.abs()))
+}
+
+/// The graph of an `n × n` grid of spacing `1/(n − 1)` with one diagonal per quad, its edge
+/// pairs `(a, b)` with `a < b`, and the rest positions in the plane z = 0.
+fn grid(n: u32) -> (Graph, Vec<(u32, u32)>, Vec<DVec3>) {
+    let s = 1.0 / (n - 1) as f64;
+    let pos: Vec<DVec3> = (0..n * n)
+        .map(|k| DVec3::new((k % n) as f64 * s, (k / n) as f64 * s, 0.0))
+        .collect();
+    let mut pairs = Vec::new();
+    for r in 0..n {
+        for c in 0..n {
+            let a = r * n + c;
+            if c + 1 < n {
+                pairs.push((a, a + 1));
+            }
+            if r + 1 < n {
+                pairs.push((a, a + n));
+            }
+            if c + 1 < n && r + 1 < n {
+                pairs.push((a, a + n + 1));
+            }
+        }
+    }
+    let mut graph: Graph = vec![Vec::new(); pos.len()];
+    for &(a, b) in &pairs {
+        let len = pos[a as usize].distance(pos[b as usize]);
+        graph[a as usize].push((b, len));
+        graph[b as usize].push((a, len));
+    }
+    (graph, pairs, pos)
+}
+
+/// The prolongations of `graph`'s coarsening, finest first, built as `newton.rs` builds them.
+fn prolongations(graph: &Graph, coarsest: usize) -> Vec<Prolongation> {
+    let c = coarsen(graph, &[], 64, coarsest);
+    let mut fine_n = graph.len();
+    let mut out = Vec::new();
+    for (kept, dropped) in c.kept.iter().zip(&c.dropped) {
+        out.push(Prolongation::from_coarsening(fine_n, kept, dropped));
+        fine_n = kept.len();
+    }
+    out
+}
+
+/// A random symmetric positive definite matrix on `pairs`: a random SPD diagonal block per
+/// row ("mass") plus, per pair, a random SPD block `K` added as `[K −K; −K K]` ("spring").
+fn random_spd(n: usize, pairs: &[(u32, u32)], rng: &mut Rng) -> BlockMatrix {
+    let mut a = BlockMatrix::with_pattern(n, pairs.iter().copied());
+    for i in 0..n {
+        a.val[a.diag[i] as usize] = rng.spd3(0.1);
+    }
+    for &(i, j) in pairs {
+        let k = rng.spd3(0.0) * 10.0;
+        let (ii, jj) = (a.diag[i as usize] as usize, a.diag[j as usize] as usize);
+        let (ij, ji) = (a.slot(i, j).unwrap(), a.slot(j, i).unwrap());
+        a.val[ii] += k;
+        a.val[jj] += k;
+        a.val[ij] -= k;
+        a.val[ji] -= k;
+    }
+    a
+}
+
+/// A cloth-like Newton Hessian: a `side × side` grid, 1 m and 1 kg, the two corners of row 0
+/// pinned (not unknowns), stretched by 1 % with a pseudo-random 1 cm wobble out of the plane;
+/// `M/h² + Σ k [n nᵀ + max(0, 1 − L/l)(I − n nᵀ)]` with h = 1/120 s and k = 1e8 N/m (the
+/// kind's default compliance). Returns the hierarchy over it (coarsest 16, as the kind's
+/// default) with the fine values set but not updated.
+fn cloth_hessian(side: u32) -> Hierarchy {
+    let (_, pairs, rest) = grid(side);
+    let n = rest.len();
+    let pinned = |i: u32| i == 0 || i == side - 1;
+    let mut unknown = vec![u32::MAX; n];
+    let mut count = 0u32;
+    for (i, u) in unknown.iter_mut().enumerate() {
+        if !pinned(i as u32) {
+            *u = count;
+            count += 1;
+        }
+    }
+    let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
+    let x: Vec<DVec3> = rest
+        .iter()
+        .map(|p| *p * 1.01 + DVec3::Z * 0.01 * rng.next())
+        .collect();
+    let free_pairs: Vec<(u32, u32)> = pairs
+        .iter()
+        .map(|&(a, b)| (unknown[a as usize], unknown[b as usize]))
+        .filter(|&(a, b)| a != u32::MAX && b != u32::MAX)
+        .collect();
+    let mut graph: Graph = vec![Vec::new(); count as usize];
+    for &(a, b) in &pairs {
+        let (ua, ub) = (unknown[a as usize], unknown[b as usize]);
+        if ua != u32::MAX && ub != u32::MAX {
+            let len = rest[a as usize].distance(rest[b as usize]);
+            graph[ua as usize].push((ub, len));
+            graph[ub as usize].push((ua, len));
+        }
+    }
+    let mut a = BlockMatrix::with_pattern(count as usize, free_pairs);
+    let (h, k) = (1.0 / 120.0, 1e8);
+    let m = 1.0 / n as f64;
+    for u in 0..count as usize {
+        a.val[a.diag[u] as usize] = DMat3::IDENTITY * (m / (h * h));
+    }
+    for &(i, j) in &pairs {
+        let d = x[j as usize] - x[i as usize];
+        let l = d.length();
+        let len = rest[i as usize].distance(rest[j as usize]);
+        let nv = d / l;
+        let nn = DMat3::from_cols(nv * nv.x, nv * nv.y, nv * nv.z);
+        let block = (nn + (DMat3::IDENTITY - nn) * (1.0 - len / l).max(0.0)) * k;
+        let (ua, ub) = (unknown[i as usize], unknown[j as usize]);
+        for (p, q, b) in [
+            (ua, ua, block),
+            (ub, ub, block),
+            (ua, ub, -block),
+            (ub, ua, -block),
+        ] {
+            if p != u32::MAX && q != u32::MAX {
+                let s = a.slot(p, q).unwrap();
+                a.val[s] += b;
+            }
+        }
+    }
+    Hierarchy::new(a, prolongations(&graph, 16))
+}
+
+#[test]
+fn with_pattern_and_mul_match_a_dense_product() {
+    let mut rng = Rng(0x2545_f491_4f6c_dd1d);
+    let n = 23;
+    // Duplicates, both orders and self pairs: the pattern holds each block once.
+    let mut pairs = Vec::new();
+    for _ in 0..60 {
+        let i = ((rng.next() + 1.0) * 0.5 * n as f64) as u32 % n as u32;
+        let j = ((rng.next() + 1.0) * 0.5 * n as f64) as u32 % n as u32;
+        pairs.push((i, j));
+    }
+    pairs.push(pairs[0]);
+    pairs.push((pairs[1].1, pairs[1].0));
+    pairs.push((5, 5));
+    let mut a = BlockMatrix::with_pattern(n, pairs.iter().copied());
+    assert_eq!(a.n(), n);
+    assert_eq!(a.start.len(), n + 1);
+    assert_eq!(a.val.len(), a.col.len());
+    for i in 0..n {
+        let row = &a.col[a.start[i] as usize..a.start[i + 1] as usize];
+        assert!(row.windows(2).all(|w| w[0] < w[1]), "row {i}: {row:?}");
+        assert_eq!(a.col[a.diag[i] as usize], i as u32, "diagonal of row {i}");
+    }
+    // Arbitrary (non-symmetric) block values: the product must not assume symmetry.
+    for v in a.val.iter_mut() {
+        *v = rng.mat3();
+    }
+    let x = rng.vector(n);
+    let mut y = vec![DVec3::splat(f64::NAN); n];
+    a.mul(serial(), &x, &mut y);
+    let d = dense(&a);
+    let reference = dense_nn(&d, &flat(&x), 3 * n, 3 * n, 1);
+    let err: Vec<f64> = flat(&y)
+        .iter()
+        .zip(&reference)
+        .map(|(p, q)| p - q)
+        .collect();
+    let rel = max_abs(&err) / max_abs(&reference);
+    assert!(rel < 1e-14, "relative error {rel:e}");
+    // `zero` keeps the pattern.
+    let cols = a.col.clone();
+    a.zero();
+    assert_eq!(a.col, cols);
+    assert!(a.val.iter().all(|b| *b == DMat3::ZERO));
+}
+
+#[test]
+fn slot_finds_every_pattern_pair_and_nothing_else() {
+    let (_, pairs, _) = grid(6);
+    let n = 36;
+    let a = BlockMatrix::with_pattern(n, pairs.iter().copied());
+    let mut expected: Vec<Vec<bool>> = (0..n).map(|i| (0..n).map(|j| i == j).collect()).collect();
+    for &(i, j) in &pairs {
+        expected[i as usize][j as usize] = true;
+        expected[j as usize][i as usize] = true;
+    }
+    let mut found = 0;
+    for (i, row) in expected.iter().enumerate() {
+        for (j, &want) in row.iter().enumerate() {
+            match a.slot(i as u32, j as u32) {
+                Some(s) => {
+                    assert!(want, "({i}, {j}) is not in the pattern but has slot {s}");
+                    assert!((a.start[i] as usize..a.start[i + 1] as usize).contains(&s));
+                    assert_eq!(a.col[s], j as u32);
+                    found += 1;
+                }
+                None => assert!(!want, "({i}, {j}) is in the pattern but has no slot"),
+            }
+        }
+    }
+    // 36 diagonal blocks plus both triangles of every edge, and every slot found once.
+    assert_eq!(found, n + 2 * pairs.len());
+    assert_eq!(found, a.val.len());
+    assert_eq!(a.slot(0, n as u32), None, "a column past the last");
+}
+
+#[test]
+fn prolongation_interpolates_and_restriction_is_its_transpose() {
+    let (graph, _, _) = grid(9);
+    let ps = prolongations(&graph, 4);
+    assert!(ps.len() >= 2, "{} coarse levels", ps.len());
+    let c = coarsen(&graph, &[], 64, 4);
+    let mut rng = Rng(77);
+    for (l, p) in ps.iter().enumerate() {
+        assert_eq!(p.coarse, c.kept[l].len());
+        // Kept particles copy their coarse self; every row's weights sum to 1, so a uniform
+        // coarse displacement is interpolated exactly.
+        for (k, &f) in c.kept[l].iter().enumerate() {
+            let range = p.start[f as usize] as usize..p.start[f as usize + 1] as usize;
+            assert_eq!(&p.col[range.clone()], &[k as u32]);
+            assert_eq!(&p.weight[range], &[1.0]);
+        }
+        let shift = DVec3::new(0.3, -1.2, 2.0);
+        let mut fine = vec![DVec3::ZERO; p.fine()];
+        p.add_to_fine(serial(), &vec![shift; p.coarse], &mut fine);
+        for f in &fine {
+            assert!((*f - shift).length() < 1e-15, "{f} from {shift}");
+        }
+        // ⟨P c, f⟩ = ⟨c, Pᵀ f⟩.
+        let (cv, fv) = (rng.vector(p.coarse), rng.vector(p.fine()));
+        let mut pc = vec![DVec3::ZERO; p.fine()];
+        p.add_to_fine(serial(), &cv, &mut pc);
+        let mut ptf = vec![DVec3::splat(f64::NAN); p.coarse];
+        p.restrict(&fv, &mut ptf);
+        let (lhs, rhs) = (dot(&pc, &fv), dot(&cv, &ptf));
+        assert!(
+            (lhs - rhs).abs() < 1e-13 * norm(&pc) * norm(&fv),
+            "{lhs} vs {rhs}"
+        );
+    }
+}
+
+#[test]
+fn coarse_operators_are_the_dense_galerkin_products() {
+    let (graph, pairs, _) = grid(9);
+    let mut rng = Rng(0x0123_4567_89ab_cdef);
+    let a = random_spd(graph.len(), &pairs, &mut rng);
+    let ps = prolongations(&graph, 4);
+    let mut h = Hierarchy::new(a.clone(), ps.clone());
+    assert_eq!(h.depth(), ps.len() + 1);
+    assert!(h.depth() >= 3, "sizes {:?}", h.sizes());
+    assert!(h.update(serial()), "a random SPD matrix is SPD");
+    // The fine values are the ones given.
+    assert_eq!(dense(h.fine()), dense(&a));
+    let mut reference = dense(&a);
+    let mut worst: f64 = 0.0;
+    for (l, p) in ps.iter().enumerate() {
+        let (mf, mc) = (3 * p.fine(), 3 * p.coarse);
+        let pd = dense_prolongation(p);
+        let ap = dense_nn(&reference, &pd, mf, mf, mc);
+        let ptap = dense_tn(&pd, &ap, mf, mc, mc);
+        let coarse = dense(&h.levels[l + 1].a);
+        let err: Vec<f64> = coarse.iter().zip(&ptap).map(|(x, y)| x - y).collect();
+        let rel = max_abs(&err) / max_abs(&ptap);
+        worst = worst.max(rel);
+        assert!(rel < 1e-12, "level {}: relative error {rel:e}", l + 1);
+        // Symmetric, as the V-cycle needs.
+        for i in 0..mc {
+            for j in 0..i {
+                let (x, y) = (coarse[i * mc + j], coarse[j * mc + i]);
+                assert!((x - y).abs() <= 1e-12 * max_abs(&ptap), "({i}, {j})");
+            }
+        }
+        reference = ptap;
+    }
+    // A second update after changing the fine values recomputes from zero (no accumulation).
+    for v in h.fine_mut().val.iter_mut() {
+        *v *= 2.0;
+    }
+    assert!(h.update(serial()));
+    let last = dense(&h.levels[h.depth() - 1].a);
+    let rel = last
+        .iter()
+        .zip(&reference)
+        .map(|(x, y)| (x - 2.0 * y).abs())
+        .fold(0.0, f64::max)
+        / max_abs(&reference);
+    assert!(rel < 1e-12, "after a second update: {rel:e}");
+    println!("Galerkin operators: worst relative error {worst:e}");
+}
+
+#[test]
+fn cholesky_reproduces_the_matrix_and_refuses_an_indefinite_one() {
+    let mut rng = Rng(5);
+    let m = 24;
+    let b: Vec<f64> = (0..m * m).map(|_| rng.next()).collect();
+    // A = B Bᵀ + I: symmetric positive definite.
+    let mut a = vec![0.0; m * m];
+    for i in 0..m {
+        for j in 0..m {
+            a[i * m + j] = (0..m).map(|k| b[i * m + k] * b[j * m + k]).sum::<f64>()
+                + if i == j { 1.0 } else { 0.0 };
+        }
+    }
+    let mut l = a.clone();
+    assert!(cholesky_in_place(&mut l, m));
+    let mut worst: f64 = 0.0;
+    for i in 0..m {
+        assert!(l[i * m + i] > 0.0);
+        for j in 0..=i {
+            let llt: f64 = (0..=j).map(|k| l[i * m + k] * l[j * m + k]).sum();
+            worst = worst.max((llt - a[i * m + j]).abs());
+        }
+    }
+    let rel = worst / max_abs(&a);
+    assert!(rel < 1e-13, "L Lᵀ − A: relative {rel:e}");
+
+    // Indefinite: eigenvalues 3 and −1; a negative pivot; a singular matrix; NaN.
+    for (mut bad, what) in [
+        (vec![1.0, 2.0, 2.0, 1.0], "indefinite"),
+        (vec![-1.0, 0.0, 0.0, 1.0], "negative pivot"),
+        (vec![1.0, 1.0, 1.0, 1.0], "singular"),
+        (vec![f64::NAN, 0.0, 0.0, 1.0], "NaN"),
+    ] {
+        assert!(!cholesky_in_place(&mut bad, 2), "{what} accepted");
+    }
+}
+
+#[test]
+fn a_single_level_is_solved_exactly_and_an_indefinite_matrix_is_refused() {
+    let (_, pairs, _) = grid(4);
+    let mut rng = Rng(11);
+    let a = random_spd(16, &pairs, &mut rng);
+    let mut h = Hierarchy::new(a, Vec::new());
+    assert_eq!(h.depth(), 1);
+    assert_eq!(h.operator_complexity(), 1.0);
+    assert!(h.update(serial()));
+    let b = rng.vector(16);
+    let mut x = vec![DVec3::ZERO; 16];
+    h.v_cycle(serial(), &b, &mut x);
+    let mut ax = vec![DVec3::ZERO; 16];
+    h.fine().mul(serial(), &x, &mut ax);
+    let r: Vec<DVec3> = b.iter().zip(&ax).map(|(p, q)| *p - *q).collect();
+    assert!(norm(&r) < 1e-12 * norm(&b), "{:e}", norm(&r) / norm(&b));
+
+    // Positive definite diagonal blocks, indefinite matrix: [I 2I; 2I I].
+    let mut bad = BlockMatrix::with_pattern(2, [(0, 1)]);
+    for i in 0..2 {
+        bad.val[bad.diag[i] as usize] = DMat3::IDENTITY;
+    }
+    let (s01, s10) = (bad.slot(0, 1).unwrap(), bad.slot(1, 0).unwrap());
+    bad.val[s01] = DMat3::IDENTITY * 2.0;
+    bad.val[s10] = DMat3::IDENTITY * 2.0;
+    assert!(!Hierarchy::new(bad.clone(), Vec::new()).update(serial()));
+    // A negative diagonal block on the fine level of a multilevel hierarchy.
+    let (graph, pairs, _) = grid(9);
+    let mut a = random_spd(graph.len(), &pairs, &mut rng);
+    let d = a.diag[40] as usize;
+    a.val[d] = -a.val[d];
+    assert!(!Hierarchy::new(a, prolongations(&graph, 4)).update(serial()));
+}
+
+#[test]
+fn pcg_solves_the_cloth_hessian_to_1e_10() {
+    let mut h = cloth_hessian(33);
+    assert!(h.update(serial()));
+    let n = h.fine().n();
+    assert_eq!(n, 33 * 33 - 2);
+    let sizes = h.sizes();
+    assert!(sizes.len() >= 3, "levels {sizes:?}");
+    assert!(
+        *sizes.last().unwrap() >= 16 && *sizes.last().unwrap() < 4 * 16,
+        "coarsest {sizes:?}"
+    );
+    let complexity = h.operator_complexity();
+    assert!(complexity < 2.0, "operator complexity {complexity}");
+    let mut rng = Rng(3);
+    let b = rng.vector(n);
+    let mut x = vec![DVec3::ZERO; n];
+    let mut pcg = Pcg::new(n);
+    let stats = pcg.solve(serial(), &mut h, &b, &mut x, 200, 1e-11);
+    let mut ax = vec![DVec3::ZERO; n];
+    h.fine().mul(serial(), &x, &mut ax);
+    let r: Vec<DVec3> = b.iter().zip(&ax).map(|(p, q)| *p - *q).collect();
+    let true_reduction = norm(&r) / norm(&b);
+    println!(
+        "33 x 33 cloth Hessian, levels {sizes:?}, complexity {complexity:.3}: {} PCG iterations, recursive reduction {:e}, true {true_reduction:e}",
+        stats.iterations, stats.reduction
+    );
+    assert!(stats.reduction <= 1e-11, "{stats:?}");
+    assert!(stats.iterations < 200, "{stats:?}");
+    assert!(true_reduction < 1e-10, "true residual {true_reduction:e}");
+    // Stopping early: the tolerance is honoured and no more iterations are run than given.
+    let loose = pcg.solve(serial(), &mut h, &b, &mut x, 200, 1e-3);
+    assert!(loose.reduction <= 1e-3 && loose.iterations < stats.iterations);
+    let capped = pcg.solve(serial(), &mut h, &b, &mut x, 2, 0.0);
+    assert_eq!(capped.iterations, 2);
+    assert!(
+        capped.reduction > 0.0 && capped.reduction < 1.0,
+        "{capped:?}"
+    );
+}
+
+#[test]
+fn pcg_from_a_zero_or_non_finite_right_hand_side_does_not_iterate() {
+    let mut h = cloth_hessian(5);
+    assert!(h.update(serial()));
+    let n = h.fine().n();
+    let mut pcg = Pcg::new(n);
+    let mut x = vec![DVec3::ONE; n];
+    let stats = pcg.solve(serial(), &mut h, &vec![DVec3::ZERO; n], &mut x, 10, 1e-6);
+    assert_eq!(stats.iterations, 0);
+    assert_eq!(stats.reduction, 0.0);
+    assert!(x.iter().all(|v| *v == DVec3::ZERO), "x is reset to zero");
+    let mut b = vec![DVec3::ONE; n];
+    b[3].y = f64::NAN;
+    let stats = pcg.solve(serial(), &mut h, &b, &mut x, 10, 1e-6);
+    assert_eq!(stats.iterations, 0);
+    assert!(stats.reduction.is_nan());
+}
+
+/// Conjugate gradients without a preconditioner, from zero, until the residual is `tolerance`
+/// times the initial one; returns the iterations.
+fn plain_cg(a: &BlockMatrix, b: &[DVec3], tolerance: f64, max_iterations: u32) -> u32 {
+    let n = b.len();
+    let mut x = vec![DVec3::ZERO; n];
+    let mut r = b.to_vec();
+    let mut p = r.clone();
+    let mut q = vec![DVec3::ZERO; n];
+    let r0 = norm(&r);
+    let mut rr = dot(&r, &r);
+    for it in 1..=max_iterations {
+        a.mul(serial(), &p, &mut q);
+        let alpha = rr / dot(&p, &q);
+        for i in 0..n {
+            x[i] += p[i] * alpha;
+            r[i] -= q[i] * alpha;
+        }
+        let rr_new = dot(&r, &r);
+        if rr_new.sqrt() <= tolerance * r0 {
+            return it;
+        }
+        let beta = rr_new / rr;
+        rr = rr_new;
+        for i in 0..n {
+            p[i] = r[i] + p[i] * beta;
+        }
+    }
+    max_iterations
+}
+
+#[test]
+fn the_v_cycle_cuts_the_iterations_far_below_plain_cg() {
+    let mut h = cloth_hessian(33);
+    assert!(h.update(serial()));
+    let n = h.fine().n();
+    let b = Rng(8).vector(n);
+    let tolerance = 1e-6;
+    let mut x = vec![DVec3::ZERO; n];
+    let mg = Pcg::new(n).solve(serial(), &mut h, &b, &mut x, 1000, tolerance);
+    let plain = plain_cg(h.fine(), &b, tolerance, 20_000);
+    println!(
+        "33 x 33 cloth Hessian to 1e-6: {} V-cycle PCG iterations, {plain} plain CG iterations",
+        mg.iterations
+    );
+    assert!(mg.reduction <= tolerance, "{mg:?}");
+    assert!(plain < 20_000, "plain CG did not reach {tolerance:e}");
+    assert!(
+        20 * mg.iterations <= plain,
+        "V-cycle PCG {} iterations against plain CG {plain}",
+        mg.iterations
+    );
+}
+
+#[test]
+fn the_v_cycle_is_a_symmetric_positive_definite_operator() {
+    // On the cloth Hessian and on a random SPD block matrix with random blocks.
+    let (graph, pairs, _) = grid(9);
+    let mut rng = Rng(21);
+    let random = Hierarchy::new(
+        random_spd(graph.len(), &pairs, &mut rng),
+        prolongations(&graph, 4),
+    );
+    for (what, mut h) in [("cloth", cloth_hessian(33)), ("random", random)] {
+        assert!(h.update(serial()));
+        assert!(h.depth() >= 3, "{what}: {:?}", h.sizes());
+        let n = h.fine().n();
+        let mut worst: f64 = 0.0;
+        for _ in 0..5 {
+            let (u, v) = (rng.vector(n), rng.vector(n));
+            let (mut mu, mut mv) = (vec![DVec3::ZERO; n], vec![DVec3::ZERO; n]);
+            h.v_cycle(serial(), &u, &mut mu);
+            h.v_cycle(serial(), &v, &mut mv);
+            let (umu, vmv) = (dot(&u, &mu), dot(&v, &mv));
+            assert!(umu > 0.0 && vmv > 0.0, "{what}: not positive");
+            // |uᵀMv| ≤ √(uᵀMu · vᵀMv) for an SPD M: the scale of the asymmetry.
+            let asym = (dot(&u, &mv) - dot(&v, &mu)).abs() / (umu * vmv).sqrt();
+            worst = worst.max(asym);
+            assert!(asym < 1e-10, "{what}: uᵀMv − vᵀMu relative {asym:e}");
+        }
+        println!("{what}: V-cycle asymmetry {worst:e}");
+    }
+}
+
+#[test]
+fn the_v_cycle_stays_symmetric_when_blocks_overflow_the_colours() {
+    // 70 blocks of GAUSS_SEIDEL_BLOCK rows, every two coupled by one pair of rows: the greedy
+    // colouring gives blocks 0..64 a colour each and leaves blocks 64..70 to the last range,
+    // swept in sequence (flagged not independent). Two levels, so the fine level is smoothed:
+    // coarse particle k interpolates to the rows of parity k.
+    let size = GAUSS_SEIDEL_BLOCK;
+    let count = 70u32;
+    let n = count as usize * size;
+    let pairs: Vec<(u32, u32)> = (0..count)
+        .flat_map(|p| (p + 1..count).map(move |q| (p * size as u32, q * size as u32 + 1)))
+        .collect();
+    let mut rng = Rng(99);
+    let a = random_spd(n, &pairs, &mut rng);
+    let (blocks, colours) = a.block_colours(size);
+    assert_eq!(blocks.len(), count as usize);
+    assert!(
+        colours
+            .iter()
+            .any(|(range, independent)| !independent && range.len() > 1),
+        "no overflowing colour of several blocks: {colours:?}"
+    );
+    let p = Prolongation {
+        coarse: 2,
+        start: (0..=n as u32).collect(),
+        col: (0..n as u32).map(|i| i % 2).collect(),
+        weight: vec![1.0; n],
+    };
+    let mut h = Hierarchy::new(a, vec![p]);
+    assert!(h.update(serial()));
+    // u and v on the overflowing blocks' rows only (the property holds for every u, v).
+    let overflow = 64 * size;
+    let mut vector = || -> Vec<DVec3> {
+        (0..n)
+            .map(|i| {
+                if i >= overflow {
+                    rng.vec3()
+                } else {
+                    DVec3::ZERO
+                }
+            })
+            .collect()
+    };
+    let (u, v) = (vector(), vector());
+    let (mut mu, mut mv) = (vec![DVec3::ZERO; n], vec![DVec3::ZERO; n]);
+    h.v_cycle(serial(), &u, &mut mu);
+    h.v_cycle(serial(), &v, &mut mv);
+    let (umu, vmv) = (dot(&u, &mu), dot(&v, &mv));
+    let asym = (dot(&u, &mv) - dot(&v, &mu)).abs() / (umu * vmv).sqrt();
+    println!("overflowing colours: V-cycle asymmetry {asym:e}");
+    assert!(asym < 1e-10, "uᵀMv − vᵀMu relative {asym:e}");
+}
+
+/// The bits of a vector of blocks or vectors, for exact comparisons.
+fn bits(v: &[DVec3]) -> Vec<u64> {
+    v.iter()
+        .flat_map(|p| p.to_array().map(f64::to_bits))
+        .collect()
+}
+
+fn block_bits(v: &[DMat3]) -> Vec<u64> {
+    v.iter()
+        .flat_map(|m| m.to_cols_array().map(f64::to_bits))
+        .collect()
+}
+
+#[test]
+fn a_two_part_team_gives_the_bits_of_one_thread() {
+    // 97 × 97: the two finest levels (9,407 and ~2,400 rows) have at least
+    // PARALLEL_MIN_ROWS rows, so their products, updates and Gauss-Seidel colours (several
+    // independent blocks each) are split over the team.
+    let mut one = cloth_hessian(97);
+    let mut two = one.clone();
+    assert!(one.sizes()[1] >= PARALLEL_MIN_ROWS, "{:?}", one.sizes());
+    let (_, colours) = one.fine().block_colours(GAUSS_SEIDEL_BLOCK);
+    assert!(
+        colours
+            .iter()
+            .any(|(range, independent)| *independent && range.len() > 1),
+        "no colour can be split: {colours:?}"
+    );
+    let team = Team::new(1);
+    let team = TeamRef::new(&team);
+    assert_eq!(team.parts(), 2);
+    assert!(one.update(serial()));
+    assert!(two.update(team));
+    for (l, (a, b)) in one.levels.iter().zip(&two.levels).enumerate() {
+        assert_eq!(block_bits(&a.a.val), block_bits(&b.a.val), "level {l}");
+        assert_eq!(
+            block_bits(&a.inv_diag),
+            block_bits(&b.inv_diag),
+            "level {l}"
+        );
+    }
+    assert!(one
+        .dense
+        .iter()
+        .zip(&two.dense)
+        .all(|(p, q)| p.to_bits() == q.to_bits()));
+    let n = one.fine().n();
+    let b = Rng(4).vector(n);
+    let (mut y1, mut y2) = (vec![DVec3::ZERO; n], vec![DVec3::ZERO; n]);
+    one.fine().mul(serial(), &b, &mut y1);
+    two.fine().mul(team, &b, &mut y2);
+    assert_eq!(bits(&y1), bits(&y2), "product");
+    one.v_cycle(serial(), &b, &mut y1);
+    two.v_cycle(team, &b, &mut y2);
+    assert_eq!(bits(&y1), bits(&y2), "V-cycle");
+    let s1 = Pcg::new(n).solve(serial(), &mut one, &b, &mut y1, 5, 0.0);
+    let s2 = Pcg::new(n).solve(team, &mut two, &b, &mut y2, 5, 0.0);
+    assert_eq!(s1, s2);
+    assert_eq!(bits(&y1), bits(&y2), "PCG");
+}

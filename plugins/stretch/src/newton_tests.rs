@@ -1,0 +1,703 @@
+//! Unit tests of the `stretch_newton` kind: the spring's derivatives against finite
+//! differences, a pass against the exact backward-Euler step of one spring, a hanging cloth
+//! driven substep by substep as the core drives it (through the plugin's ABI entry), and the
+//! build's and the parameters' errors.
+
+use super::*;
+use nucleus_sdk::abi_stable::std_types::RSlice;
+use nucleus_sdk::GroupBox;
+
+/// One object: particles with rest positions and inverse masses, and its edges.
+struct Mesh {
+    rest: Vec<[f64; 3]>,
+    inv_mass: Vec<f64>,
+    edges: Vec<[u32; 2]>,
+    triangles: Vec<[u32; 3]>,
+}
+
+impl Mesh {
+    /// A flat square grid of `cells × cells` quads in the plane z = 0, side 1 m, each quad
+    /// split into two triangles, total mass 1 kg spread evenly; `edges` holds every edge of the
+    /// triangles.
+    fn grid(cells: u32) -> Mesh {
+        let n = cells + 1;
+        let rest = (0..n * n)
+            .map(|k| {
+                let (r, c) = (k / n, k % n);
+                [c as f64 / cells as f64, r as f64 / cells as f64, 0.0]
+            })
+            .collect();
+        let mut triangles = Vec::new();
+        for r in 0..cells {
+            for c in 0..cells {
+                let a = r * n + c;
+                triangles.push([a, a + 1, a + n + 1]);
+                triangles.push([a, a + n + 1, a + n]);
+            }
+        }
+        let mut edges: Vec<[u32; 2]> = triangles
+            .iter()
+            .flat_map(|t| [[t[0], t[1]], [t[1], t[2]], [t[2], t[0]]])
+            .map(|[a, b]| [a.min(b), a.max(b)])
+            .collect();
+        edges.sort_unstable();
+        edges.dedup();
+        Mesh {
+            rest,
+            inv_mass: vec![(n * n) as f64; (n * n) as usize],
+            edges,
+            triangles,
+        }
+    }
+
+    fn object(&self) -> ObjectView<'_> {
+        ObjectView {
+            edges: RSlice::from_slice(&self.edges),
+            triangles: RSlice::from_slice(&self.triangles),
+            ..ObjectView::new("cloth", 0, self.rest.len() as u32)
+        }
+    }
+
+    /// The `stretch_newton` group of this mesh through the plugin's entry, with the kind's
+    /// parameter validation, as the host builds it.
+    fn group(&self, params: &str) -> Result<GroupBox, PluginError> {
+        let objects = [self.object()];
+        let scene = SceneView {
+            gravity: [0.0, 0.0, -9.81],
+            frame_dt: 1.0 / 60.0,
+            substeps: 2,
+            ..SceneView::new(&objects, &[0], &self.rest, &self.inv_mass)
+        };
+        crate::nucleus_plugin().create_group("stretch_newton", params, &scene)
+    }
+}
+
+/// The particle state the core would own, and the substep length.
+struct State {
+    x: Vec<[f64; 3]>,
+    v: Vec<[f64; 3]>,
+    x0: Vec<[f64; 3]>,
+    inv_mass: Vec<f64>,
+    object: Vec<u32>,
+    flags: Vec<u32>,
+    h: f64,
+    frame: u64,
+}
+
+impl State {
+    fn new(mesh: &Mesh, x: Vec<[f64; 3]>, h: f64) -> State {
+        let n = x.len();
+        State {
+            x0: x.clone(),
+            x,
+            v: vec![[0.0; 3]; n],
+            inv_mass: mesh.inv_mass.clone(),
+            object: vec![0; n],
+            flags: vec![0; n],
+            h,
+            frame: 0,
+        }
+    }
+
+    fn ctx(&mut self) -> SolveContext<'_> {
+        let (h, frame) = (self.h, self.frame);
+        SolveContext {
+            frame,
+            ..SolveContext::new(
+                &mut self.x,
+                &mut self.v,
+                &self.x0,
+                &self.inv_mass,
+                &self.object,
+                &self.flags,
+                h,
+            )
+        }
+    }
+
+    fn begin(&mut self, group: &mut GroupBox) {
+        group
+            .begin_substep(&mut self.ctx())
+            .into_result()
+            .expect("begin_substep");
+    }
+
+    fn project(&mut self, group: &mut GroupBox) {
+        group
+            .project(&mut self.ctx())
+            .into_result()
+            .expect("project");
+    }
+
+    /// One substep as the core runs it: gravity into the free particles' velocities, the
+    /// prediction `x = x0 + h v`, `begin_substep`, `passes` projections, `v = (x − x0)/h`.
+    fn substep(&mut self, group: &mut GroupBox, gravity: DVec3, passes: u32) {
+        let h = self.h;
+        self.x0.clone_from(&self.x);
+        for ((x, v), &w) in self.x.iter_mut().zip(self.v.iter_mut()).zip(&self.inv_mass) {
+            if w > 0.0 {
+                for k in 0..3 {
+                    v[k] += h * gravity[k];
+                    x[k] += h * v[k];
+                }
+            }
+        }
+        self.begin(group);
+        for _ in 0..passes {
+            self.project(group);
+        }
+        for ((v, x), x0) in self.v.iter_mut().zip(&self.x).zip(&self.x0) {
+            for k in 0..3 {
+                v[k] = (x[k] - x0[k]) / h;
+            }
+        }
+    }
+
+    fn residual(&mut self, group: &GroupBox) -> Residual {
+        group.residual(&self.ctx()).into_result().expect("residual")
+    }
+
+    fn report(&mut self, group: &GroupBox, name: &str) -> f64 {
+        let stats = group.report(&self.ctx()).into_result().expect("report");
+        stats
+            .iter()
+            .find(|s| s.name.as_str() == name)
+            .unwrap_or_else(|| panic!("no stat {name}"))
+            .value
+    }
+
+    fn all_finite(&self) -> bool {
+        self.x.iter().flatten().all(|c| c.is_finite())
+    }
+
+    fn bits(&self) -> Vec<u64> {
+        self.x.iter().flatten().map(|c| c.to_bits()).collect()
+    }
+}
+
+fn p(a: [f64; 3]) -> DVec3 {
+    DVec3::from_array(a)
+}
+
+/// Central finite differences of `f` at `d` along x, y and z with step `eps`.
+fn central<T: std::ops::Sub<Output = T> + std::ops::Div<f64, Output = T>>(
+    f: impl Fn(DVec3) -> T,
+    d: DVec3,
+    eps: f64,
+) -> [T; 3] {
+    [DVec3::X, DVec3::Y, DVec3::Z].map(|e| (f(d + e * eps) - f(d - e * eps)) / (2.0 * eps))
+}
+
+#[test]
+fn the_spring_force_and_stiffness_are_the_energy_derivatives_when_stretched() {
+    let (rest, ks, kc) = (1.0, 1e3, 7.0);
+    for d in [
+        DVec3::new(1.1, 0.2, -0.3),
+        DVec3::new(-0.4, 0.9, 0.8),
+        DVec3::new(0.0, 0.0, 2.5),
+    ] {
+        assert!(d.length() > rest);
+        let (energy, force, block) = spring(d, rest, ks, kc).expect("a stretched edge");
+        let c = d.length() - rest;
+        assert!((energy - 0.5 * ks * c * c).abs() <= 1e-15 * energy);
+        // The force on b is −∂E/∂xb = −∂E/∂d.
+        let eps = 1e-6 * d.length();
+        let e = |q: DVec3| spring(q, rest, ks, kc).unwrap().0;
+        let gradient = DVec3::from_array(central(e, d, eps));
+        let err = (force + gradient).length() / force.length();
+        assert!(err < 1e-6, "{d}: force {force} vs −∇E {gradient}: {err:e}");
+        // The block is −∂f_b/∂xb: the full Hessian of the energy, symmetric.
+        let f = |q: DVec3| spring(q, rest, ks, kc).unwrap().1;
+        let [fx, fy, fz] = central(f, d, eps);
+        let jacobian = -DMat3::from_cols(fx, fy, fz);
+        let diff = (block - jacobian).to_cols_array();
+        let scale = block
+            .to_cols_array()
+            .iter()
+            .fold(0.0f64, |m, v| m.max(v.abs()));
+        let err = diff.iter().fold(0.0f64, |m, v| m.max(v.abs())) / scale;
+        assert!(err < 1e-6, "{d}: block vs −∂f/∂x: {err:e}");
+        assert_eq!(block, block.transpose());
+    }
+}
+
+#[test]
+fn a_compressed_spring_uses_the_compression_energy_and_no_geometric_term() {
+    let d = DVec3::new(0.5, -0.3, 0.2);
+    let l = d.length();
+    let rest = 1.0;
+    assert!(l < rest);
+    let (n, c) = (d / l, l - rest);
+    let nn = DMat3::from_cols(n * n.x, n * n.y, n * n.z);
+    let max_abs = |m: DMat3| m.to_cols_array().iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    // Softer in compression (buckling cloth) and stiffer in compression.
+    for (ks, kc) in [(1e3, 7.0), (7.0, 1e3)] {
+        let (energy, force, block) = spring(d, rest, ks, kc).expect("a compressed edge");
+        assert!((energy - 0.5 * kc * c * c).abs() <= 1e-15 * energy);
+        // Pushes b away from a: along +n with magnitude kc |C|, −∂E/∂d.
+        assert!((force - n * (kc * -c)).length() <= 1e-15 * force.length());
+        let e = |q: DVec3| spring(q, rest, ks, kc).unwrap().0;
+        let gradient = DVec3::from_array(central(e, d, 1e-6 * l));
+        assert!((force + gradient).length() < 1e-6 * force.length());
+        // The exact Hessian's geometric term kc (1 − L/l)(I − n nᵀ) is negative here and
+        // dropped: the block acts along the edge only, so H stays positive definite.
+        let across = block * (DMat3::IDENTITY - nn);
+        assert!(
+            max_abs(across) < 1e-13 * max_abs(block),
+            "{ks}, {kc}: {block}"
+        );
+        // Along the edge, the stiffer spring (newton.rs: a compressed edge modelled by its soft
+        // spring lets the step overshoot into stretch), where the energy's curvature is kc.
+        let along = n.dot(block * n);
+        assert!(
+            (along - ks.max(kc)).abs() < 1e-13 * along,
+            "{ks}, {kc}: {along}"
+        );
+        let f = |q: DVec3| spring(q, rest, ks, kc).unwrap().1;
+        let [fx, fy, fz] = central(f, d, 1e-6 * l);
+        let exact_along = -n.dot(DMat3::from_cols(fx, fy, fz) * n);
+        assert!((exact_along - kc).abs() < 1e-6 * kc, "{exact_along}");
+    }
+    // At exactly the rest length: no energy, no force, the stiffer spring along the edge.
+    let (e, f, k) = spring(DVec3::new(0.0, 2.0, 0.0), 2.0, 1e3, 7.0).unwrap();
+    assert_eq!((e, f), (0.0, DVec3::ZERO));
+    assert_eq!(k, DMat3::from_diagonal(DVec3::new(0.0, 1e3, 0.0)));
+}
+
+#[test]
+fn a_spring_without_direction_is_none() {
+    for d in [
+        DVec3::ZERO,
+        DVec3::new(1e-13, 0.0, 0.0),
+        DVec3::new(f64::NAN, 0.0, 0.0),
+        DVec3::new(f64::INFINITY, 0.0, 0.0),
+    ] {
+        assert!(spring(d, 1.0, 1.0, 1.0).is_none(), "{d}");
+    }
+    // Just above the floor, a zero rest length is fine.
+    assert!(spring(DVec3::new(1e-9, 0.0, 0.0), 0.0, 1.0, 1.0).is_some());
+}
+
+/// One free unit mass on a spring of rest length `|start|` to a pin at the origin, given
+/// velocity `velocity`, gravity along −z, one substep of 1/60 s; after `begin_substep` the
+/// particle is displaced by `nudge` (as another group between the passes would move it), then
+/// `passes` passes. Returns the distance from the exact backward-Euler position before and
+/// after each pass, and that position.
+fn hanging_particle(
+    velocity: DVec3,
+    nudge: DVec3,
+    params: &str,
+    k: f64,
+    passes: u32,
+) -> (Vec<f64>, DVec3) {
+    let start = [0.3, 0.0, -0.9];
+    let mesh = Mesh {
+        rest: vec![[0.0; 3], start],
+        inv_mass: vec![0.0, 1.0],
+        edges: vec![[0, 1]],
+        triangles: Vec::new(),
+    };
+    let mut group = mesh.group(params).expect("group");
+    let h = 1.0 / 60.0;
+    let mut state = State::new(&mesh, mesh.rest.clone(), h);
+    let g = DVec3::new(0.0, 0.0, -9.81);
+    // x̃ = x0 + h (v + h g).
+    let target = p(start) + (velocity + g * h) * h;
+    state.x[1] = target.to_array();
+    // Backward Euler, the minimiser of Φ: m (x − x̃)/h² = −k (l − L) x/l, so x ∥ x̃ and
+    // m (l − |x̃|)/h² = −k (l − L):   l = (m |x̃|/h² + k L) / (m/h² + k).
+    let (m, rest) = (1.0, p(start).length());
+    let l = (m * target.length() / (h * h) + k * rest) / (m / (h * h) + k);
+    let exact = target / target.length() * l;
+    state.begin(&mut group);
+    state.x[1] = (target + nudge).to_array();
+    let mut errors = vec![(p(state.x[1]) - exact).length()];
+    for _ in 0..passes {
+        state.project(&mut group);
+        errors.push((p(state.x[1]) - exact).length());
+        assert_eq!(state.x[0], [0.0; 3], "the pin moved");
+    }
+    (errors, exact)
+}
+
+fn sci(v: &[f64]) -> String {
+    v.iter()
+        .map(|x| format!("{x:.1e}"))
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+#[test]
+fn a_particle_on_one_spring_converges_to_the_exact_backward_euler_step() {
+    let params = r#"{"compliance": 1e-4, "compression_compliance": 1e-2}"#;
+    let rest = DVec3::new(0.3, 0.0, -0.9).length();
+    // Stretched (k = 1e4 N/m against m/h² = 3,600 N/m), thrown outwards and sideways. From
+    // x̃ the problem is one-dimensional along x̃ and quadratic there: one pass is exact.
+    let throw = DVec3::new(6.0, 20.0, -18.0);
+    let (errors, exact) = hanging_particle(throw, DVec3::ZERO, params, 1e4, 3);
+    println!("stretched from x̃: {}", sci(&errors));
+    assert!(exact.length() > rest * 1.05, "the spring is stretched");
+    assert!(errors[0] > 0.05 && errors[1] < 1e-14, "{errors:?}");
+    // Nudged 0.2 m sideways after begin_substep: a genuinely nonlinear problem, which the
+    // Newton passes (full Hessian in tension) solve quadratically.
+    let (errors, exact) = hanging_particle(throw, DVec3::new(-0.1, 0.2, 0.1), params, 1e4, 12);
+    println!(
+        "stretched, nudged: exact length {:.6} (rest {rest:.6}); error per pass {}",
+        exact.length(),
+        sci(&errors)
+    );
+    // Observed: 3e-1, 5e-2, 9e-4, 7e-7, 2e-13, then the rounding floor (~1e-13 m), where
+    // the line search can no longer tell Φ's values apart.
+    assert!(errors[2] < 1e-2 && errors[3] < 1e-5, "{errors:?}");
+    assert!(
+        errors[5] < 1e-11 && *errors.last().unwrap() < 1e-11,
+        "{errors:?}"
+    );
+
+    // Compressed (thrown towards the pin), equal stiffnesses (the kind's default ratio): the
+    // block is the energy's exact curvature along the edge, and the modified Hessian (no
+    // geometric term) still converges.
+    let throw = DVec3::new(-6.0, 0.0, 18.0);
+    let equal = r#"{"compliance": 1e-4, "compression_compliance": 1e-4}"#;
+    let (errors, exact) = hanging_particle(throw, DVec3::ZERO, equal, 1e4, 3);
+    println!("compressed from x̃: {}", sci(&errors));
+    assert!(exact.length() < rest * 0.99, "the spring is compressed");
+    assert!(errors[0] > 1e-3 && errors[1] < 1e-14, "{errors:?}");
+    let (errors, _) = hanging_particle(throw, DVec3::new(0.1, -0.2, 0.05), equal, 1e4, 30);
+    println!("compressed, nudged: error per pass {}", sci(&errors));
+    assert!(*errors.last().unwrap() < 1e-11, "{errors:?}");
+
+    // Compressed with a 100× softer compression spring: the block along the edge is the
+    // stretch stiffness, so from x̃ (one-dimensional, quadratic) each pass takes the fraction
+    // (m/h² + kc)/(m/h² + ks) of the remaining error off, and no more.
+    let (errors, exact) = hanging_particle(throw, DVec3::ZERO, params, 100.0, 30);
+    let (mh2, ks, kc) = (3600.0, 1e4, 100.0);
+    let rate = 1.0 - (mh2 + kc) / (mh2 + ks);
+    println!(
+        "compressed, soft: exact length {:.6} (rest {rest:.6}); error per pass {} (predicted rate {rate:.4})",
+        exact.length(),
+        sci(&errors)
+    );
+    assert!(exact.length() < rest * 0.95, "the spring is compressed");
+    for w in errors[..10].windows(2) {
+        assert!(
+            (w[1] / w[0] - rate).abs() < 1e-6,
+            "rate {} against {rate}: {errors:?}",
+            w[1] / w[0]
+        );
+    }
+    assert!(
+        *errors.last().unwrap() < errors[0] * rate.powi(29),
+        "{errors:?}"
+    );
+}
+
+/// The hanging cloth: 17 × 17 particles, 1 m, 1 kg, the two corners of row 0 pinned, gravity
+/// along −z, `frames` frames of 2 substeps × 2 passes at 60 frames/s, with the kind's default
+/// parameters.
+fn hanging_cloth(frames: u64) -> Cloth {
+    let mut mesh = Mesh::grid(16);
+    mesh.inv_mass[0] = 0.0;
+    mesh.inv_mass[16] = 0.0;
+    let mut group = mesh.group("{}").expect("group");
+    let mut state = State::new(&mesh, mesh.rest.clone(), 1.0 / 120.0);
+    let (mut worst, mut lowest): (f64, f64) = (0.0, 0.0);
+    for frame in 0..frames {
+        state.frame = frame;
+        for _ in 0..2 {
+            state.substep(&mut group, DVec3::new(0.0, 0.0, -9.81), 2);
+        }
+        assert!(state.all_finite(), "NaN at frame {frame}");
+        worst = worst.max(state.residual(&group).max);
+        lowest = state.x.iter().map(|x| x[2]).fold(lowest, f64::min);
+    }
+    Cloth {
+        state,
+        group,
+        worst,
+        lowest,
+        mesh,
+    }
+}
+
+/// What [`hanging_cloth`] returns.
+struct Cloth {
+    state: State,
+    group: GroupBox,
+    /// Largest strain after any frame.
+    worst: f64,
+    /// Lowest z reached by any particle after any frame (m).
+    lowest: f64,
+    mesh: Mesh,
+}
+
+#[test]
+fn a_hanging_cloth_falls_without_stretching() {
+    let Cloth {
+        mut state,
+        group,
+        worst,
+        lowest,
+        mesh,
+    } = hanging_cloth(60);
+    let r = state.residual(&group);
+    let (iterations, levels) = (
+        state.report(&group, "cg_iterations"),
+        state.report(&group, "levels"),
+    );
+    println!(
+        "17 x 17 cloth, 60 frames of 2 x 2: max strain over all frames {worst:.5}, last frame max {:.5} RMS {:.6}; lowest z reached {lowest:.3} m; last CG iterations {iterations}, levels {levels}, halvings in the last frame {}",
+        r.max,
+        r.rms,
+        state.report(&group, "halvings")
+    );
+    assert_eq!(group.constraint_count(), mesh.edges.len() as u64);
+    assert!(worst <= 0.01, "max strain {worst}");
+    assert!(r.rms <= 0.001, "RMS strain {}", r.rms);
+    // Without bending it swings down like a pendulum (the far edge ~1 m below the pins after
+    // half a second) and back up: the lowest point reached, not the last one.
+    assert!(
+        lowest < -0.8,
+        "the cloth did not fall: lowest z reached {lowest}"
+    );
+    assert!(
+        (1.0..=50.0).contains(&iterations),
+        "{iterations} CG iterations"
+    );
+    assert!(levels >= 2.0, "{levels} levels");
+    // The pins never moved.
+    assert_eq!(state.x[0], mesh.rest[0]);
+    assert_eq!(state.x[16], mesh.rest[16]);
+}
+
+#[test]
+fn two_identical_runs_give_the_same_bits() {
+    let (a, b) = (hanging_cloth(15), hanging_cloth(15));
+    assert_eq!(a.state.bits(), b.state.bits());
+    assert!(a.lowest < -0.1, "the cloth moved");
+}
+
+#[test]
+fn pins_stay_where_the_scene_puts_them() {
+    // The core moves a pin along its motion before the passes; the group must neither pull it
+    // back nor move it further.
+    let mut mesh = Mesh::grid(4);
+    mesh.inv_mass[0] = 0.0;
+    mesh.inv_mass[4] = 0.0;
+    let mut group = mesh.group("{}").expect("group");
+    let mut state = State::new(&mesh, mesh.rest.clone(), 1.0 / 120.0);
+    for frame in 0..10 {
+        state.frame = frame;
+        state.x0.clone_from(&state.x);
+        let moved = [0.01 * frame as f64, 0.0, -0.02 * frame as f64];
+        state.x[0] = moved;
+        state.begin(&mut group);
+        for _ in 0..3 {
+            state.project(&mut group);
+            assert_eq!(state.x[0], moved);
+            assert_eq!(state.x[4], mesh.rest[4]);
+        }
+    }
+    assert!(state.all_finite());
+    // The free particles followed the moving pin.
+    let moved = p(state.x[1]).distance(p(mesh.rest[1]));
+    assert!(moved > 1e-3, "{:?}", state.x[1]);
+}
+
+/// The stretched and wobbled rest shape of `mesh`: every position scaled by `factor` in x
+/// and y, with a deterministic wobble in z.
+fn stretched(mesh: &Mesh, factor: f64) -> Vec<[f64; 3]> {
+    mesh.rest
+        .iter()
+        .enumerate()
+        .map(|(k, p)| {
+            [
+                p[0] * factor,
+                p[1] * factor,
+                0.02 * ((k * 7 % 5) as f64 - 2.0),
+            ]
+        })
+        .collect()
+}
+
+/// A free 9 × 9 cloth with uneven masses (1/2 to 3/2 of 1/81 kg), stretched by 5 % and
+/// wobbled, no gravity: one pass from `x̃ = ` those positions. Returns `|Σ m (x − x̃)|`, the
+/// bound `h² √(3n) ρ |∇E(x̃)|` that CG's residual reduction `ρ` implies, `Σ m |x − x̃|` and
+/// `ρ` (the group's `cg_reduction`).
+fn momentum_after_one_pass(params: &str) -> (f64, f64, f64, f64) {
+    let mut mesh = Mesh::grid(8);
+    let n = mesh.rest.len();
+    for (k, w) in mesh.inv_mass.iter_mut().enumerate() {
+        *w = 81.0 / (0.5 + (k * 37 % 11) as f64 / 10.0);
+    }
+    let mut group = mesh.group(params).expect("group");
+    let h = 1.0 / 120.0;
+    let start = stretched(&mesh, 1.05);
+    let mut state = State::new(&mesh, start.clone(), h);
+    state.begin(&mut group);
+    state.project(&mut group);
+    let reduction = state.report(&group, "cg_reduction");
+    let mut momentum = DVec3::ZERO;
+    let mut moved = 0.0;
+    for ((x, x0), &w) in state.x.iter().zip(&start).zip(&mesh.inv_mass) {
+        let d = p(*x) - p(*x0);
+        momentum += d / w;
+        moved += d.length() / w;
+    }
+    // ∇E at x̃, where the inertia term vanishes: the right-hand side CG started from.
+    let mut gradient = vec![DVec3::ZERO; n];
+    let (ks, kc) = (1e8, 1e8);
+    for &[i, j] in &mesh.edges {
+        let rest = p(mesh.rest[i as usize]).distance(p(mesh.rest[j as usize]));
+        let (_, f, _) = spring(p(start[j as usize]) - p(start[i as usize]), rest, ks, kc).unwrap();
+        gradient[i as usize] += f;
+        gradient[j as usize] -= f;
+    }
+    let norm = gradient
+        .iter()
+        .map(|g| g.length_squared())
+        .sum::<f64>()
+        .sqrt();
+    let bound = h * h * ((3 * n) as f64).sqrt() * reduction * norm;
+    (momentum.length(), bound, moved, reduction)
+}
+
+#[test]
+fn a_pass_conserves_linear_momentum_to_the_cg_residual() {
+    // The springs are internal forces, so Σᵢ ∇ᵢΦ(x̃) = 0 and the exact Newton step s has
+    // Σ m s = 0 (sum the rows of H s = −∇Φ: the spring blocks of each row sum to zero). CG
+    // stops at a residual r = −∇Φ − H s, whose rows sum to −Σ m s / h²; so
+    // |Σ m s| ≤ h² √(3n) |r| = h² √(3n) ρ |∇Φ|, and the line search only scales s.
+    let (default, bound, moved, reduction) = momentum_after_one_pass("{}");
+    println!(
+        "default CG: |Σ m Δx| = {default:e} kg·m (bound {bound:e}, Σ m |Δx| = {moved:e}, CG reduction {reduction:e})"
+    );
+    assert!(moved > 1e-4, "the pass moved the cloth: {moved}");
+    assert!(default <= bound * (1.0 + 1e-6), "{default:e} > {bound:e}");
+    // Solved to the end, the step conserves momentum to rounding.
+    let (converged, bound, moved, reduction) =
+        momentum_after_one_pass(r#"{"cg_iterations": 500, "cg_tolerance": 1e-14}"#);
+    println!(
+        "converged CG: |Σ m Δx| = {converged:e} kg·m (bound {bound:e}, Σ m |Δx| = {moved:e}, CG reduction {reduction:e})"
+    );
+    assert!(reduction <= 1e-13, "CG reduction {reduction:e}");
+    assert!(converged <= bound, "{converged:e} > {bound:e}");
+    assert!(converged <= 1e-9 * moved, "{converged:e} against {moved:e}");
+}
+
+#[test]
+fn coincident_particles_produce_no_nan() {
+    let mesh = Mesh::grid(3);
+    let mut group = mesh.group("{}").expect("group");
+    let mut state = State::new(&mesh, vec![[0.25, -0.5, 1.0]; mesh.rest.len()], 1.0 / 120.0);
+    for _ in 0..3 {
+        state.substep(&mut group, DVec3::ZERO, 2);
+    }
+    assert!(state.all_finite());
+    let r = state.residual(&group);
+    assert!(r.max.is_finite() && r.rms.is_finite() && r.energy.is_finite());
+    // Every edge has zero length: strain 1, and nothing moved.
+    assert!((r.max - 1.0).abs() < 1e-15, "{r:?}");
+    assert!(state.x.iter().all(|x| *x == [0.25, -0.5, 1.0]));
+}
+
+#[test]
+fn bad_geometry_is_an_error_naming_the_object() {
+    let mut mesh = Mesh::grid(1);
+    mesh.edges.push([2, 9]);
+    let e = mesh
+        .group("{}")
+        .err()
+        .expect("an edge outside its object accepted");
+    assert_eq!(e.code, PluginError::BAD_OBJECT);
+    assert_eq!(e.subject.as_str(), "cloth");
+    assert!(e.message.as_str().contains("(2, 9)"), "{e}");
+
+    let mut mesh = Mesh::grid(1);
+    mesh.edges.push([1, 1]);
+    let e = mesh.group("{}").err().expect("an edge to itself accepted");
+    assert_eq!(e.code, PluginError::BAD_OBJECT);
+    assert_eq!(e.subject.as_str(), "cloth");
+
+    for bad in [f64::NAN, f64::INFINITY] {
+        let mut mesh = Mesh::grid(2);
+        mesh.rest[4][1] = bad;
+        let e = mesh
+            .group("{}")
+            .err()
+            .expect("a non-finite rest position accepted");
+        assert_eq!(e.code, PluginError::BAD_OBJECT);
+        assert_eq!(e.subject.as_str(), "cloth");
+        assert!(e.message.as_str().contains("non-finite"), "{e}");
+    }
+}
+
+#[test]
+fn parameters_out_of_range_are_refused_naming_them() {
+    let mesh = Mesh::grid(2);
+    for (params, name) in [
+        (r#"{"compliance": 0}"#, "compliance"),
+        (r#"{"compliance": -1e-6}"#, "compliance"),
+        (r#"{"compression_compliance": 0}"#, "compression_compliance"),
+        (r#"{"rest_length_scale": 0}"#, "rest_length_scale"),
+        (r#"{"cg_iterations": 0}"#, "cg_iterations"),
+        (r#"{"cg_iterations": 2.5}"#, "cg_iterations"),
+        (r#"{"cg_tolerance": 1.5}"#, "cg_tolerance"),
+        (r#"{"coarsest": 1}"#, "coarsest"),
+        (r#"{"stiffness": 1e8}"#, "stiffness"),
+    ] {
+        let e = mesh.group(params).err().expect(params);
+        assert_eq!(e.code, PluginError::BAD_PARAMETER, "{params}: {e}");
+        assert_eq!(e.subject.as_str(), name, "{params}: {e}");
+    }
+    assert!(mesh.group(r#"{"compliance": 1e-15}"#).is_ok());
+}
+
+#[test]
+fn the_kind_describes_itself() {
+    let kinds = crate::kinds();
+    let kind = kinds
+        .iter()
+        .find(|k| k.name == "stretch_newton")
+        .expect("the stretch_newton kind");
+    assert_eq!(kind.default_order, 0);
+    assert_eq!(kind.default_importance, 1);
+    assert_eq!(kind.residual_unit, "strain");
+    let infos = kind.param_infos();
+    let names: Vec<&str> = infos.iter().map(|p| p.name.as_str()).collect();
+    assert_eq!(
+        names,
+        [
+            "compliance",
+            "compression_compliance",
+            "rest_length_scale",
+            "cg_iterations",
+            "cg_tolerance",
+            "coarsest"
+        ]
+    );
+    for p in &infos {
+        assert!(!p.doc.is_empty(), "{} has no doc", p.name);
+    }
+    let mesh = Mesh::grid(2);
+    let group = mesh.group("{}").expect("group");
+    let stages = group.stages();
+    assert!(
+        stages.contains(Stages::PROJECT | Stages::BEGIN_SUBSTEP),
+        "{stages:?}"
+    );
+    assert_eq!(group.constraint_count(), 16);
+}
+
+#[test]
+fn the_core_asks_for_the_report() {
+    // The core calls `report` only on groups whose stages include REPORT; the module docs
+    // promise `cg_iterations`, `cg_reduction`, `halvings`, `levels` and
+    // `operator_complexity` in the stats.
+    let group = Mesh::grid(2).group("{}").expect("group");
+    let stages = group.stages();
+    assert!(
+        stages.contains(Stages::REPORT),
+        "stages {stages:?} lack REPORT: the core never calls `report`"
+    );
+}

@@ -1,0 +1,162 @@
+//! The `stretch_newton` kind through the loaded plugin on the peers' drape,
+//! `scenes/drape_newton.toml` (1 m, 1 kg, pinned at the two corners of row 0, 8 substeps × 2
+//! passes, the kind's default CG: at most 50 iterations a pass, to 1e-6): at N = 32 the
+//! structural edges stay within the target's bounds (max strain 1 %, RMS 0.1 %), the cloth
+//! falls as converged solvers make it fall, and one and two threads give the same bits — at
+//! N = 32, where every loop of the kind runs on one thread, and at N = 96, where the fine
+//! level's assembly, products and Gauss-Seidel colours are split over the team.
+
+use glam::DVec3;
+use nucleus_core::Simulation;
+use nucleus_tests::*;
+
+/// `scenes/drape_newton.toml` at `n × n` vertices.
+fn drape_newton(n: u32) -> Simulation {
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../scenes/drape_newton.toml"
+    ))
+    .expect("scenes/drape_newton.toml");
+    let resolution = "resolution = [64, 64]";
+    assert!(
+        text.contains(resolution),
+        "the scene's resolution line moved"
+    );
+    simulation(
+        &text.replace(resolution, &format!("resolution = [{n}, {n}]")),
+        &[],
+    )
+}
+
+/// The structural edges of the cloth (rest length one grid spacing, `1/(n − 1)`; not the
+/// quads' diagonals) and their rest lengths.
+fn structural_edges(sim: &Simulation, n: u32) -> Vec<([usize; 2], f64)> {
+    let rest = &sim.particles.rest;
+    let spacing = 1.0 / (n - 1) as f64;
+    let edges: Vec<([usize; 2], f64)> = sim
+        .object("cloth")
+        .expect("cloth")
+        .edges
+        .iter()
+        .map(|&[i, j]| {
+            let len =
+                DVec3::from_array(rest[j as usize]).distance(DVec3::from_array(rest[i as usize]));
+            ([i as usize, j as usize], len)
+        })
+        .filter(|(_, len)| (len - spacing).abs() < 1e-9)
+        .collect();
+    // 2 n (n − 1) rows and columns.
+    assert_eq!(edges.len(), (2 * n * (n - 1)) as usize);
+    edges
+}
+
+/// Max and RMS strain `|l − L|/L` over `edges` at the current positions.
+fn strain(sim: &Simulation, edges: &[([usize; 2], f64)]) -> (f64, f64) {
+    let x = sim.positions();
+    let (mut max, mut sq) = (0.0f64, 0.0);
+    for &([i, j], len) in edges {
+        let s = ((x[j] - x[i]).length() - len).abs() / len;
+        max = max.max(s);
+        sq += s * s;
+    }
+    (max, (sq / edges.len() as f64).sqrt())
+}
+
+fn bits(sim: &Simulation) -> Vec<u64> {
+    sim.particles
+        .x
+        .iter()
+        .chain(&sim.particles.v)
+        .flatten()
+        .map(|c| c.to_bits())
+        .collect()
+}
+
+/// What [`run`] measured.
+struct Run {
+    sim: Simulation,
+    /// Each frame's max and RMS structural strain.
+    strains: Vec<(f64, f64)>,
+}
+
+/// Runs `frames` frames on `threads` threads.
+fn run(n: u32, frames: u32, threads: usize) -> Run {
+    let mut sim = drape_newton(n);
+    sim.threads = threads;
+    let edges = structural_edges(&sim, n);
+    let mut strains = Vec::new();
+    for f in 0..frames {
+        sim.step_frame()
+            .unwrap_or_else(|e| panic!("frame {f}: {e}"));
+        assert!(
+            sim.positions().iter().all(|p| p.is_finite()),
+            "non-finite position at frame {f}"
+        );
+        strains.push(strain(&sim, &edges));
+    }
+    Run { sim, strains }
+}
+
+#[test]
+fn the_drape_at_32_meets_the_strain_bounds_with_the_same_bits_on_one_and_two_threads() {
+    let Run {
+        sim: one, strains, ..
+    } = run(32, 60, 1);
+    let two = run(32, 60, 2).sim;
+    let last = &strains[30..];
+    let worst = last.iter().map(|s| s.0).fold(0.0, f64::max);
+    let worst_rms = last.iter().map(|s| s.1).fold(0.0, f64::max);
+    let mean_rms = last.iter().map(|s| s.1).sum::<f64>() / last.len() as f64;
+    let all_frames = strains.iter().map(|s| s.0).fold(0.0, f64::max);
+    println!(
+        "drape_newton N = 32, frames 31-60: max strain {:.4} %, RMS {:.5} % (worst frame), {:.5} % (mean); max over all 60 frames {:.4} %",
+        100.0 * worst,
+        100.0 * worst_rms,
+        100.0 * mean_rms,
+        100.0 * all_frames
+    );
+    assert!(worst <= 0.01, "max strain {worst}");
+    assert!(worst_rms <= 0.001, "RMS strain {worst_rms}");
+    assert!(bits(&one) == bits(&two), "1 and 2 threads differ");
+}
+
+/// Height of the particles' mean (every particle weighs the same in the drape).
+fn mean_height(sim: &Simulation) -> f64 {
+    let x = sim.positions();
+    x.iter().map(|p| p.y).sum::<f64>() / x.len() as f64
+}
+
+#[test]
+fn the_drape_falls_as_converged_solvers_make_it_fall() {
+    // Low strain means little if the cloth does not move right. Measured 2026-11-23 at
+    // N = 32 (`bench/motion.py`): the mean height after 0.25 s and 0.5 s is −0.213 / −0.493 m
+    // for plain `stretch` at 320 substeps, −0.214 / −0.495 m for `stretch_newton` with every
+    // Newton step solved to the end (2 substeps × 20 passes); the scene's setting gives
+    // −0.210 / −0.481 m, where 5 CG iterations a step at 2 × 2 held the cloth up
+    // (−0.080 / −0.078 m). Both bounds: 3 cm.
+    let mut sim = drape_newton(32);
+    let mut heights = Vec::new();
+    for f in 0..30 {
+        sim.step_frame()
+            .unwrap_or_else(|e| panic!("frame {f}: {e}"));
+        heights.push(mean_height(&sim));
+    }
+    let (quarter, half) = (heights[14], heights[29]);
+    println!("drape_newton N = 32: mean height {quarter:.3} m at 0.25 s, {half:.3} m at 0.5 s");
+    assert!(
+        (quarter + 0.213).abs() < 0.03,
+        "mean height {quarter} m at 0.25 s"
+    );
+    assert!((half + 0.493).abs() < 0.03, "mean height {half} m at 0.5 s");
+}
+
+#[test]
+fn a_drape_large_enough_to_be_split_over_the_team_gives_the_same_bits_on_one_and_two_threads() {
+    // 96 × 96: 9,214 unknowns, above the multigrid's PARALLEL_MIN_ROWS (2,048), so the
+    // assembly, the two finest levels' products and Galerkin updates, and the fine level's
+    // Gauss-Seidel colours are split over two parts.
+    let (one, two) = (run(96, 2, 1).sim, run(96, 2, 2).sim);
+    assert!(bits(&one) == bits(&two), "1 and 2 threads differ");
+    let start = drape_newton(96);
+    assert!(bits(&one) != bits(&start), "the cloth must have moved");
+}
