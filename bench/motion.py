@@ -28,9 +28,9 @@ def main():
     a = load(sys.argv[1])
     height = np.array([x[:, 1].mean() for x in a])
     lowest = min(x[:, 1].min() for x in a)
-    frames = [k for k in (14, 29, 59, len(a) - 1) if k < len(a)]
+    frames = [k for k in (15, 30, 60, len(a) - 1) if k < len(a)]
     msg = f"lowest {lowest:.3f} m; mean height after frames " + "/".join(
-        str(k + 1) for k in frames) + ": " + "/".join(f"{height[k]:.3f}" for k in frames) + " m"
+        str(k) for k in frames) + ": " + "/".join(f"{height[k]:.3f}" for k in frames) + " m"
     if len(sys.argv) > 2:
         b = load(sys.argv[2])
         n = min(len(a), len(b))

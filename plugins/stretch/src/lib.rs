@@ -8,7 +8,10 @@
 //! Two more kinds help hard stretch converge, each only where a scene asks for it: `tether`
 //! ([`tether`]: long-range attachments to the pins, Kim et al. 2012) and `stretch_hierarchy`
 //! ([`hierarchy`]: hierarchical position-based dynamics, Müller 2008), and `stretch` itself
-//! can accelerate its passes ([Chebyshev](#chebyshev-acceleration-optional)). Their costs
+//! can accelerate its passes ([Chebyshev](#chebyshev-acceleration-optional)). A fourth kind,
+//! `stretch_newton` ([`newton`], its linear algebra in [`multigrid`]), replaces `stretch`: every
+//! edge a stiff spring, a global Newton step per pass solved by multigrid-preconditioned
+//! conjugate gradients. Their costs
 //! and what they buy on the peers' drape are measured in `docs/peers.md`, below and in the
 //! README.
 //!
@@ -263,8 +266,9 @@ pub fn kinds() -> Vec<KindSpec> {
             doc: "Every edge of the target objects as a stiff spring (compliance > 0), solved \
                   globally: each pass is one Newton step on the substep's implicit-Euler \
                   problem, its linear system solved by a few conjugate-gradient iterations \
-                  preconditioned by a geometric multigrid V-cycle. For cloth that must not \
-                  stretch, at few substeps; use it instead of `stretch`.",
+                  preconditioned by a geometric multigrid V-cycle. Use it instead of `stretch` \
+                  for cloth that must hardly stretch; keep the passes and CG converged \
+                  (the defaults), or the cloth's motion goes wrong before its strain shows it.",
             default_order: 0,
             default_importance: 1,
             residual_unit: "strain",

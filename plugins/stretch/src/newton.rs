@@ -20,18 +20,22 @@
 //! Newton step on `Φ` from the current positions:
 //!
 //! ```text
-//! H s = −∇Φ,   H = M/h² + Σₑ k [n nᵀ + max(0, 1 − L/l)(I − n nᵀ)]  (edge blocks, ±)
+//! H s = −∇Φ,   H = M/h² + Σₑ [k̂ n nᵀ + k max(0, 1 − L/l)(I − n nᵀ)]  (edge blocks, ±)
 //! ```
 //!
-//! The geometric stiffness `(1 − L/l)(I − n nᵀ)` is kept only for a stretched edge (clamped to
-//! tension), so `H` is always symmetric positive definite: the mass term alone makes it so.
-//! `H s = −∇Φ` is solved approximately, by at most `cg_iterations` of preconditioned conjugate
-//! gradients from `s = 0` (inexact Newton: a few iterations that cut the residual ~100× give
-//! the exact solve's strain, measured in `bench/newton_pcg`), and a backtracking line search
-//! halves the step until `Φ` decreases (at most 30 halvings; no decrease, no move). Pins
-//! (inverse mass 0 at build time) are not unknowns: they hold the cloth wherever the scene
-//! moves them.
-//!
+//! with `k̂ = max(k_stretch, k_compress)` along the edge: the energy's curvature jumps at the rest
+//! length, and a compressed edge modelled by a softer compression spring let the step overshoot
+//! into stretch, where the line search stalled and the cloth blew up (stored energy 5e5 J on a
+//! 12 × 12 cloth with `compression_compliance = 1e-4`); with the stiffer curvature the step is
+//! shorter and safe (a compressed edge then converges linearly, by `1 − k_c/k̂` per pass when
+//! alone). The geometric stiffness `(1 − L/l)(I − n nᵀ)` is kept only for a stretched edge
+//! (clamped to tension), so `H` is always symmetric positive definite: the mass term alone
+//! makes it so. `H s = −∇Φ` is solved approximately, by at most `cg_iterations` of
+//! preconditioned conjugate gradients from `s = 0`, stopping once the residual is
+//! `cg_tolerance` of the first, and a backtracking line search halves the step until `Φ`
+//! decreases (at most 30 halvings; no decrease, no move). Pins (inverse mass 0 at build time)
+//! are not unknowns: they hold the cloth wherever the scene moves them.
+
 //! ## The preconditioner
 //!
 //! A geometric multigrid built once from the target objects' edge graph over their free
@@ -43,13 +47,25 @@
 //! factor. One V-cycle is a forward block Gauss-Seidel sweep, the coarse correction and a
 //! backward sweep. Nothing is allocated after the group is built.
 //!
-//! ## When to use it
+//! ## When to use it — and what the strain hides
 //!
-//! For cloth that must not stretch, at few substeps. Its strain is set by the number of
-//! Newton steps (substeps × passes), not by the resolution: measured on the peers' drape in
-//! the README (part 6 of the benchmark) and in `bench/newton_pcg/README.md`. Each pass costs
-//! far more than a Gauss-Seidel pass — an assembly, a Galerkin update, a few V-cycles — so at
-//! loose tolerances plain `stretch` with substeps is cheaper.
+//! For cloth that must hardly stretch. Measured on the peers' drape (README, part 6 of the
+//! benchmark; 2 threads): converged — enough Newton steps a frame (8 × 2 or 2 × 4), each solved
+//! to 1e-6 — it moves the cloth as plain `stretch` at 320 substeps does (mean height within
+//! 3 cm at N = 32 and 64, `bench/motion.py`) with ten to a hundred times less strain (N = 64,
+//! 2 × 4: 124 ms a frame, max 0.020 %, RMS 0.0013 %), but at N = 128 it takes 591 ms a frame
+//! (2 × 4), more than `stretch` with `tether` needs for 1 % / 0.1 % (237 ms).
+//!
+//! **Cheap settings give low strain and the wrong motion.** With 5 CG iterations a step at
+//! 2 × 2 the 128 × 128 drape meets both strain bounds in 42–49 ms (max 0.61 %, RMS 0.023 %) but
+//! barely falls (mean height −0.09 m after 0.5 s, against −0.49 m): the preconditioner's coarse
+//! levels interpolate linearly over the rest mesh, which does not represent the folded cloth's
+//! bending and swinging, so those motions — the ones strain does not measure — converge last.
+//! And a substep whose Newton iteration is not converged gains energy with stiff springs (the
+//! stress suite, `docs/stress.md`: one pass at compliance 1e-8, +34 %/s of the energy in
+//! play), where converged passes never do. Hence the defaults (at most 50 CG iterations, to
+//! 1e-6) and `scenes/drape_newton.toml`'s 8 × 2; fewer passes or iterations only with a check
+//! of the motion.
 //!
 //! It is a penalty method: `compliance` must be positive. Its default, 1e-8 m/N, lets a
 //! 1 m, 1 kg cloth hanging from two corners stretch about 1e-5 at the pins. The default order
@@ -77,7 +93,8 @@ use crate::multigrid::{
 use glam::DMat3;
 use nucleus_sdk::team::{span, SharedArray, TeamRef};
 
-/// Unknowns or edges per chunk of the objective's sum (see [`NewtonGroup::objective`]).
+/// Unknowns or edges per chunk of the line search's sums of `Φ`, each chunk summed in order and
+/// the chunks' sums in order: the same bits whatever the thread count.
 pub const CHUNK: usize = 2048;
 
 /// The parameters of the `stretch_newton` kind.
@@ -131,7 +148,8 @@ pub const MAX_HALVINGS: u32 = 30;
 
 /// An edge's spring: energy `k C²/2`, the force on its second end `−k C n` (its first end
 /// gets the opposite), and the stiffness block `K` (the Hessian's `(b, b)` and `(a, a)`
-/// blocks; `−K` off the diagonal). `d = xb − xa`; `None` when the edge has no direction.
+/// blocks; `−K` off the diagonal): `max(k_stretch, k_compress) n nᵀ` along the edge plus, when
+/// stretched, the geometric term `k (1 − L/l)(I − n nᵀ)` (see the module docs). `d = xb − xa`; `None` when the edge has no direction.
 #[inline]
 pub fn spring(d: DVec3, rest: f64, k_stretch: f64, k_compress: f64) -> Option<(f64, DVec3, DMat3)> {
     let l = d.length();
