@@ -3,7 +3,7 @@
 geometric stiffness, each Newton step a sparse direct solve. numpy + scipy. See README.md.
 
 usage: primal.py N SUBSTEPS NEWTON [--compliance ALPHA] [--frames 120] [--trace] [--amg CG]
-                 [--cost]
+                 [--rebuild R [--galerkin]] [--gmg [--coarsest NODES]] [--cost]
 
 Per substep, implicit Euler on stiff springs (compliance ALPHA m/N, default 1e-8: the strain
 the compliance itself allows is ~1e-6 at the pins):
@@ -25,6 +25,11 @@ With `--amg CG`, each Newton step is instead CG iterations (at most CG) precondi
 V-cycle of smoothed-aggregation algebraic multigrid (pyamg, built anew for every Newton step,
 the six rigid-body modes as its near-null space): the iterative solver a plugin would need.
 Prints CG iterations, relative residuals and the hierarchy's operator complexity too.
+
+With `--rebuild R`, the AMG hierarchy is built only every R-th Newton step and reused between
+(frozen, or with `--galerkin` its prolongators kept and its coarse operators recomputed); with
+`--gmg`, a geometric hierarchy fixed by the rest mesh (the `stretch_hierarchy` kind's
+coarsening) with Galerkin operators for every Hessian: what the `stretch_newton` kind builds.
 
 With `--cost`, after the run: what one such CG iteration costs on the Hessian of the last
 positions (the hanging cloth), on one thread (run with OMP_NUM_THREADS=1), best of 5 repeats:
@@ -317,6 +322,7 @@ x = X.copy()
 v = np.zeros_like(x)
 log = StrainLog(ea, eb, L, struct)
 newton_steps, halvings = 0, 0
+heights = []  # the particles' mean height after each frame (m)
 amg_log = []
 amg_cached, amg_state = None, {"calls": 0}
 if a.gmg:
@@ -348,12 +354,15 @@ for fr in range(a.frames):
             x = x + t * step
             newton_steps += 1
         v = (x - xo) / dt
+    heights.append(x[:, 1].mean())
     if not log.frame(x, fr, a.trace):
         break
 strain_max, strain_rms = log.means()
 print(f"N={N} S={a.S} newton={a.newton} compliance={a.compliance:g}: max {strain_max:.3f}% "
       f"rms {strain_rms:.4f}%  Newton steps/frame {newton_steps / len(log.rows):.0f}, "
-      f"halvings/frame {halvings / len(log.rows):.1f}, lowest point {x[:, 1].min():.3f} m")
+      f"halvings/frame {halvings / len(log.rows):.1f}, lowest point {x[:, 1].min():.3f} m, "
+      f"mean height after 15 / 30 frames {heights[min(14, len(heights) - 1)]:.3f} / "
+      f"{heights[min(29, len(heights) - 1)]:.3f} m")
 if amg_log:
     its, red, cx = np.array(amg_log).T
     print(f"AMG-CG: {its.mean():.1f} iterations per Newton step, residual reduced "

@@ -58,9 +58,12 @@
 //!
 //! **Cheap settings give low strain and the wrong motion.** With 5 CG iterations a step at
 //! 2 × 2 the 128 × 128 drape meets both strain bounds in 42–49 ms (max 0.61 %, RMS 0.023 %) but
-//! barely falls (mean height −0.09 m after 0.5 s, against −0.49 m): the preconditioner's coarse
-//! levels interpolate linearly over the rest mesh, which does not represent the folded cloth's
-//! bending and swinging, so those motions — the ones strain does not measure — converge last.
+//! barely falls (mean height −0.09 m after 0.5 s, against −0.49 m). Two causes, both measured:
+//! two Newton steps a substep do not converge it from the prediction (N = 64, 2 × 2 with CG to
+//! 1e-8: −0.36 m at 0.5 s; four or more steps a substep are right), and truncated CG holds the
+//! cloth up further — the preconditioner's coarse levels interpolate linearly over the rest
+//! mesh, which does not represent the folded cloth's bending and swinging, so those motions
+//! (the ones strain does not measure) converge last.
 //! And a substep whose Newton iteration is not converged gains energy with stiff springs (the
 //! stress suite, `docs/stress.md`: one pass at compliance 1e-8, +34 %/s of the energy in
 //! play), where converged passes never do. Hence the defaults (at most 50 CG iterations, to
