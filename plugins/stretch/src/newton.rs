@@ -53,8 +53,9 @@
 //! benchmark; 2 threads): converged — enough Newton steps a frame (8 × 2 or 2 × 4), each solved
 //! to 1e-6 — it moves the cloth as plain `stretch` at 320 substeps does (mean height within
 //! 3 cm at N = 32 and 64, `bench/motion.py`) with ten to a hundred times less strain (N = 64,
-//! 2 × 4: 124 ms a frame, max 0.020 %, RMS 0.0013 %), but at N = 128 it takes 591 ms a frame
-//! (2 × 4), more than `stretch` with `tether` needs for 1 % / 0.1 % (237 ms).
+//! 2 × 4: 124 ms a frame, max 0.020 %, RMS 0.0013 %), but at N = 128 it takes 483–591 ms a
+//! frame (4 × 2, 2 × 4; every cheaper setting measured lags), more than `stretch` with `tether`
+//! needs for 1 % / 0.1 % (237 ms).
 //!
 //! **Cheap settings give low strain and the wrong motion.** With 5 CG iterations a step at
 //! 2 × 2 the 128 × 128 drape meets both strain bounds in 42–49 ms (max 0.61 %, RMS 0.023 %) but
