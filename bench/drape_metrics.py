@@ -17,7 +17,11 @@ and OUT_DIR/run.json, and prints one JSON line with the same fields as the peers
 * where the max sits: per frame, the grid distance (Chebyshev, in edges) of the max-strain
   edge from the nearer pinned corner -> strain_max_ring_median (its median over the window)
   and strain_max_near_pin_share (the share of frames with the max within 2 edges of a pin);
-* min_height: lowest y at frame F; exploded: NaN anywhere or |x| > 100 m at frame F.
+* min_height: lowest y at frame F; exploded: NaN anywhere or |x| > 100 m at frame F;
+* mean_height_15, mean_height_30: the particles' mean y after frames 15 and 30 (0.25 s and 0.5 s
+  at 60 fps; null for a shorter run) — the motion, which strain alone does not see: a solver
+  that holds the cloth up can have little strain. Plain `stretch` at 320 substeps gives about
+  -0.24 and -0.49 m at N = 32 to 128 (bench/motion.py compares whole runs).
 
 Rest lengths come from frame 0. `key=value` arguments are copied into the JSON line (numbers
 parsed). Pure Python; numpy is used when it is importable (about 20x faster at N = 128).
@@ -161,6 +165,13 @@ def metrics(out_dir, N, frames, window):
         dmaxs.append(s_diag.frame(x)[0])
         last = x
     finite = all(math.isfinite(c) for c in last)
+
+    def mean_height(k):
+        if k > frames:
+            return None
+        ys = read_obj_vertices(os.path.join(out_dir, f"frame_{k:04d}.obj"))[1::3]
+        return clean(sum(ys) / len(ys))
+
     steady = times[1:] if len(times) > 1 else times
 
     def clean(v):
@@ -178,6 +189,8 @@ def metrics(out_dir, N, frames, window):
         "strain_max_ring_median": median(rings),
         "strain_max_near_pin_share": sum(1 for r in rings if r <= 2) / len(rings),
         "min_height": clean(min(last[1::3])),
+        "mean_height_15": mean_height(15),
+        "mean_height_30": mean_height(30),
         "exploded": (not finite) or max(abs(c) for c in last) > 100.0,
     }
 
