@@ -15,13 +15,13 @@ import sys
 
 import numpy as np
 
+from drape_metrics import read_obj_vertices
+
 
 def load(d):
-    """The vertices of every frame_*.obj in `d`, in frame order."""
+    """The vertices (n x 3) of every frame_*.obj in `d`, in frame order."""
     names = sorted(f for f in os.listdir(d) if f.startswith("frame_") and f.endswith(".obj"))
-    return [np.array([list(map(float, line.split()[1:4]))
-                      for line in open(os.path.join(d, f)) if line.startswith("v ")])
-            for f in names]
+    return [np.array(read_obj_vertices(os.path.join(d, f))).reshape(-1, 3) for f in names]
 
 
 def main():

@@ -180,44 +180,37 @@ def geometric_prolongators(x_free, edges_free, coarsest):
     return out
 
 
-def gmg_hierarchy(Hf):
-    """The geometric hierarchy's V-cycle for `Hf`: Galerkin operators, block Gauss-Seidel."""
+def galerkin_hierarchy(Hf, prolongators, sweep):
+    """The V-cycle over `Hf` and its Galerkin operators `R A P`, level by level for the
+    `(P, R)` pairs (finest first), smoothed by `sweep` before and after."""
     from pyamg.multilevel import MultilevelSolver
     from pyamg.relaxation.smoothing import change_smoothers
 
     levels, A = [], Hf.tocsr()
-    for P in gmg_prolongators:
+    for P, R in prolongators:
         lv = MultilevelSolver.Level()
-        lv.A, lv.P, lv.R = A, P, P.T.tocsr()
-        A = (lv.R @ A @ P).tocsr()
+        lv.A, lv.P, lv.R = A, P, R
+        A = (R @ A @ P).tocsr()
         levels.append(lv)
     lv = MultilevelSolver.Level()
     lv.A = A
     levels.append(lv)
     ml = MultilevelSolver(levels, coarse_solver="pinv")
-    sweep = ("block_gauss_seidel", {"sweep": "symmetric", "blocksize": 3})
     change_smoothers(ml, sweep, sweep)
     return ml
+
+
+def gmg_hierarchy(Hf):
+    """The geometric hierarchy's V-cycle for `Hf`: Galerkin operators, block Gauss-Seidel."""
+    return galerkin_hierarchy(Hf, [(P, P.T.tocsr()) for P in gmg_prolongators],
+                              ("block_gauss_seidel", {"sweep": "symmetric", "blocksize": 3}))
 
 
 def galerkin_update(ml, Hf):
     """`ml`'s prolongators kept, its operators recomputed for `Hf` (R A P level by level) and
     its smoothers set up anew: the hierarchy reused for a new Hessian."""
-    from pyamg.multilevel import MultilevelSolver
-    from pyamg.relaxation.smoothing import change_smoothers
-
-    levels, A = [], Hf.tocsr()
-    for old in ml.levels:
-        lv = MultilevelSolver.Level()
-        lv.A = A
-        if hasattr(old, "P"):
-            lv.P, lv.R = old.P, old.R
-            A = (old.R @ A @ old.P).tocsr()
-        levels.append(lv)
-    new = MultilevelSolver(levels, coarse_solver="pinv")
-    sweep = ("block_gauss_seidel", {"sweep": "symmetric"})
-    change_smoothers(new, sweep, sweep)
-    return new
+    return galerkin_hierarchy(Hf, [(lv.P, lv.R) for lv in ml.levels if hasattr(lv, "P")],
+                              ("block_gauss_seidel", {"sweep": "symmetric"}))
 
 
 def amg_solve(Hf, rhs, x_free):
@@ -361,8 +354,8 @@ strain_max, strain_rms = log.means()
 print(f"N={N} S={a.S} newton={a.newton} compliance={a.compliance:g}: max {strain_max:.3f}% "
       f"rms {strain_rms:.4f}%  Newton steps/frame {newton_steps / len(log.rows):.0f}, "
       f"halvings/frame {halvings / len(log.rows):.1f}, lowest point {x[:, 1].min():.3f} m, "
-      f"mean height after 15 / 30 frames {heights[min(14, len(heights) - 1)]:.3f} / "
-      f"{heights[min(29, len(heights) - 1)]:.3f} m")
+      f"mean height after {min(15, len(heights))} / {min(30, len(heights))} frames "
+      f"{heights[min(15, len(heights)) - 1]:.3f} / {heights[min(30, len(heights)) - 1]:.3f} m")
 if amg_log:
     its, red, cx = np.array(amg_log).T
     print(f"AMG-CG: {its.mean():.1f} iterations per Newton step, residual reduced "

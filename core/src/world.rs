@@ -31,7 +31,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use abi_stable::std_types::{RResult, RSlice, RSliceMut, RStr};
 use glam::{DQuat, DVec3};
-use nucleus_sdk::team::{self, span, SharedArray, TeamRef};
+use nucleus_sdk::team::{self, SharedArray, TeamRef};
 use nucleus_sdk::{
     Attribute, EdgePair, GroupBox, ObjectView, PluginError, Residual, SceneView, SolveContext,
     Stages, TrianglePair, FLAG_KINEMATIC,
@@ -410,20 +410,9 @@ fn pin_target(
     }
 }
 
-/// Runs `f` over `0..n` (not at all for `n = 0`): split into the team's parts (each its own
-/// contiguous range, by [`span`]) when `n` reaches [`PARALLEL_MIN_PARTICLES`], else in one piece
-/// on this thread. `f` must write only what its range owns; the results are then the same for
-/// any team.
+/// [`TeamRef::for_ranges`] from [`PARALLEL_MIN_PARTICLES`] particles on.
 fn for_ranges(team: TeamRef<'_>, n: usize, f: &(dyn Fn(std::ops::Range<usize>) + Sync)) {
-    if n == 0 {
-        return;
-    }
-    let parts = team.parts();
-    if parts > 1 && n >= PARALLEL_MIN_PARTICLES {
-        team.run(&|part| f(span(part, parts, n)));
-    } else {
-        f(0..n);
-    }
+    team.for_ranges(n, PARALLEL_MIN_PARTICLES, f);
 }
 
 /// [`for_ranges`] over `0..items.len()`, each range with its own part of `items` to write.

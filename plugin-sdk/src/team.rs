@@ -31,6 +31,7 @@
 
 use std::cell::UnsafeCell;
 use std::marker::PhantomData;
+use std::ops::Range;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Arc;
@@ -321,6 +322,22 @@ impl<'a> TeamRef<'a> {
         }
     }
 
+    /// Runs `f` over `0..n` (not at all for `n = 0`): split into the team's parts (each its own
+    /// contiguous range, by [`span`]) when `n` reaches `min_split`, else in one piece on this
+    /// thread. `f` must write only what its range owns; the results are then the same for any
+    /// team.
+    pub fn for_ranges(&self, n: usize, min_split: usize, f: &(dyn Fn(Range<usize>) + Sync)) {
+        if n == 0 {
+            return;
+        }
+        let parts = self.parts();
+        if parts > 1 && n >= min_split {
+            self.run(&|part| f(span(part, parts, n)));
+        } else {
+            f(0..n);
+        }
+    }
+
     /// Runs `job(part)` for every part `0..parts()` on the host's team and returns when all are
     /// done; one part, on this thread, without a team. A panic in any part is raised again
     /// here once every part is done.
@@ -583,5 +600,20 @@ mod tests {
             ran.fetch_add(1, Ordering::Relaxed);
         });
         assert_eq!(ran.load(Ordering::Relaxed), 1);
+    }
+
+    #[test]
+    fn for_ranges_covers_the_range_once_split_only_from_the_threshold() {
+        let team = Team::new(1);
+        let team = TeamRef::new(&team);
+        for (n, min_split, pieces) in [(0, 1, 0), (10, 11, 1), (10, 10, 2), (1001, 2, 2)] {
+            let seen = std::sync::Mutex::new(Vec::new());
+            team.for_ranges(n, min_split, &|r| seen.lock().unwrap().push(r));
+            let mut seen = seen.into_inner().unwrap();
+            seen.sort_by_key(|r| r.start);
+            assert_eq!(seen.len(), pieces, "n {n}, min {min_split}: {seen:?}");
+            let all: Vec<usize> = seen.into_iter().flatten().collect();
+            assert_eq!(all, (0..n).collect::<Vec<_>>());
+        }
     }
 }

@@ -260,6 +260,13 @@ impl Edges {
     /// object); a target index outside the scene.
     pub fn collect(params: &StretchParams, scene: &SceneView<'_>) -> Result<Edges, PluginError> {
         params.validate()?;
+        Edges::scaled(params.rest_length_scale, scene)
+    }
+
+    /// As [`collect`](Self::collect), with rest lengths `rest_length_scale` times the rest
+    /// shape's and no parameters to check: what every kind that solves the edges one way or
+    /// another (`stretch`, `stretch_newton`) starts from.
+    pub fn scaled(rest_length_scale: f64, scene: &SceneView<'_>) -> Result<Edges, PluginError> {
         let targets = scene.unique_targets()?;
         let rest_x = scene.rest_positions();
         let inv_mass = scene.inv_mass.as_slice();
@@ -289,7 +296,7 @@ impl Edges {
                 if inv_mass[iu] == 0.0 && inv_mass[ju] == 0.0 {
                     continue;
                 }
-                let rest = params.rest_length_scale * (rest_x[ju] - rest_x[iu]).length();
+                let rest = rest_length_scale * (rest_x[ju] - rest_x[iu]).length();
                 if !rest.is_finite() {
                     return Err(bad(format!("edge ({i}, {j}) has a non-finite rest length")));
                 }

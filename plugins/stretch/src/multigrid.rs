@@ -36,15 +36,9 @@ pub const PARALLEL_MIN_ROWS: usize = 2048;
 /// Rows per block of the Gauss-Seidel sweeps' colouring ([`BlockMatrix::block_colours`]).
 pub const GAUSS_SEIDEL_BLOCK: usize = 256;
 
-/// Runs `f` on `0..n` split into the team's parts (on this thread alone below
-/// [`PARALLEL_MIN_ROWS`] items or without a team).
-pub fn for_parts(team: TeamRef<'_>, n: usize, f: &(dyn Fn(std::ops::Range<usize>) + Sync)) {
-    let parts = team.parts();
-    if parts > 1 && n >= PARALLEL_MIN_ROWS {
-        team.run(&|part| f(span(part, parts, n)));
-    } else {
-        f(0..n);
-    }
+/// [`TeamRef::for_ranges`] from [`PARALLEL_MIN_ROWS`] items on.
+pub fn for_parts(team: TeamRef<'_>, n: usize, f: &(dyn Fn(Rows) + Sync)) {
+    team.for_ranges(n, PARALLEL_MIN_ROWS, f);
 }
 
 /// A square matrix of 3 × 3 blocks in compressed sparse rows, both triangles stored, columns

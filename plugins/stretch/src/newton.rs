@@ -90,7 +90,8 @@ use nucleus_sdk::params::{self, ParamSpec};
 use nucleus_sdk::prelude::*;
 use serde::Deserialize;
 
-use crate::distance::MIN_LENGTH;
+use crate::distance::{EdgeMaterial, MIN_LENGTH};
+use crate::group::{edge_residual, Edges};
 use crate::multigrid::{
     for_parts, BlockMatrix, CgStats, Hierarchy, Pcg, Prolongation, PARALLEL_MIN_ROWS,
 };
@@ -194,6 +195,8 @@ pub struct NewtonGroup {
     edge_stiffness: Vec<DMat3>,
     /// The objective's chunk sums.
     partial: Vec<f64>,
+    /// The two compliances (for the residual), and the springs `k = 1/α` they give.
+    material: EdgeMaterial,
     k_stretch: f64,
     k_compress: f64,
     cg_iterations: u32,
@@ -217,8 +220,6 @@ impl NewtonGroup {
         let w = scene.inv_mass.as_slice();
         let mut unknown = vec![u32::MAX; rest_x.len().min(w.len())];
         let mut dof = Vec::new();
-        let mut edges = Vec::new();
-        let mut rest = Vec::new();
         let mut max_index = None;
         for (_, object) in scene.unique_targets()? {
             let range = object.particles();
@@ -228,31 +229,14 @@ impl NewtonGroup {
                     dof.push(i as u32);
                 }
             }
-            for &[i, j] in object.edges.as_slice() {
-                if !range.contains(&(i as usize)) || !range.contains(&(j as usize)) || i == j {
-                    return Err(PluginError::bad_object(
-                        object.name.as_str(),
-                        format!(
-                            "edge ({i}, {j}) is outside the object or joins a particle to itself"
-                        ),
-                    ));
-                }
-                let len = (rest_x[j as usize] - rest_x[i as usize]).length() * p.rest_length_scale;
-                if !len.is_finite() {
-                    return Err(PluginError::bad_object(
-                        object.name.as_str(),
-                        format!("edge ({i}, {j}) has a non-finite rest length"),
-                    ));
-                }
-                if w[i as usize] > 0.0 || w[j as usize] > 0.0 {
-                    edges.push([i, j]);
-                    rest.push(len);
-                }
-            }
             if !range.is_empty() {
                 max_index = max_index.max(Some(range.end as u32 - 1));
             }
         }
+        // Checked as `stretch` checks them; an edge between two pins is dropped.
+        let Edges {
+            ids: edges, rest, ..
+        } = Edges::scaled(p.rest_length_scale, scene)?;
         let ends: Vec<[u32; 2]> = edges
             .iter()
             .map(|&[i, j]| [unknown[i as usize], unknown[j as usize]])
@@ -318,6 +302,11 @@ impl NewtonGroup {
             ends,
             incident_start,
             incident,
+            material: EdgeMaterial {
+                compliance: p.compliance,
+                compression_compliance: p.compression_compliance,
+                damping: 0.0,
+            },
             k_stretch: 1.0 / p.compliance,
             k_compress: 1.0 / p.compression_compliance,
             cg_iterations: p.cg_iterations.max(1) as u32,
@@ -327,11 +316,6 @@ impl NewtonGroup {
             halvings: 0,
             last_frame: u64::MAX,
         })
-    }
-
-    /// The hierarchy's block rows per level, finest first.
-    pub fn level_sizes(&self) -> Vec<usize> {
-        self.hierarchy.sizes()
     }
 
     /// `Φ` at the positions `x` moved by `t · step` at the unknowns. The sum is taken in
@@ -552,32 +536,7 @@ impl ConstraintGroup for NewtonGroup {
     /// Strain `|l − L|/L` of the edges (the length itself for a zero rest length) and the
     /// springs' energy.
     fn residual(&self, ctx: &SolveContext<'_>) -> Residual {
-        let x = ctx.positions();
-        let (mut max, mut sq, mut energy, mut n) = (0.0f64, 0.0, 0.0, 0u64);
-        for (&[i, j], &rest) in self.edges.iter().zip(&self.rest) {
-            let (Some(a), Some(b)) = (x.get(i as usize), x.get(j as usize)) else {
-                continue;
-            };
-            let l = (*b - *a).length();
-            let c = l - rest;
-            let r = if rest > 0.0 { c.abs() / rest } else { l };
-            max = max.max(r);
-            sq += r * r;
-            energy +=
-                0.5 * if c >= 0.0 {
-                    self.k_stretch
-                } else {
-                    self.k_compress
-                } * c
-                    * c;
-            n += 1;
-        }
-        Residual {
-            count: n,
-            max,
-            rms: if n > 0 { (sq / n as f64).sqrt() } else { 0.0 },
-            energy,
-        }
+        edge_residual(&self.edges, &self.rest, &self.material, ctx.positions())
     }
 
     fn report(&self, _ctx: &SolveContext<'_>, out: &mut Vec<(String, f64)>) {

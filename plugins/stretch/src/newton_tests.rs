@@ -4,175 +4,24 @@
 //! build's and the parameters' errors.
 
 use super::*;
-use nucleus_sdk::abi_stable::std_types::RSlice;
+use crate::tests::{stretched_by, Mesh, State};
 use nucleus_sdk::GroupBox;
 
-/// One object: particles with rest positions and inverse masses, and its edges.
-struct Mesh {
-    rest: Vec<[f64; 3]>,
-    inv_mass: Vec<f64>,
-    edges: Vec<[u32; 2]>,
-    triangles: Vec<[u32; 3]>,
+/// A flat square grid of `cells × cells` quads in the plane z = 0, side 1 m, each quad split
+/// into two triangles, total mass 1 kg spread evenly (the `stretch` tests' mesh).
+fn grid(cells: u32) -> Mesh {
+    let mut mesh = Mesh::grid(cells, 1.0);
+    let n = mesh.rest.len();
+    mesh.inv_mass = vec![n as f64; n];
+    mesh
 }
 
-impl Mesh {
-    /// A flat square grid of `cells × cells` quads in the plane z = 0, side 1 m, each quad
-    /// split into two triangles, total mass 1 kg spread evenly; `edges` holds every edge of the
-    /// triangles.
-    fn grid(cells: u32) -> Mesh {
-        let n = cells + 1;
-        let rest = (0..n * n)
-            .map(|k| {
-                let (r, c) = (k / n, k % n);
-                [c as f64 / cells as f64, r as f64 / cells as f64, 0.0]
-            })
-            .collect();
-        let mut triangles = Vec::new();
-        for r in 0..cells {
-            for c in 0..cells {
-                let a = r * n + c;
-                triangles.push([a, a + 1, a + n + 1]);
-                triangles.push([a, a + n + 1, a + n]);
-            }
-        }
-        let mut edges: Vec<[u32; 2]> = triangles
-            .iter()
-            .flat_map(|t| [[t[0], t[1]], [t[1], t[2]], [t[2], t[0]]])
-            .map(|[a, b]| [a.min(b), a.max(b)])
-            .collect();
-        edges.sort_unstable();
-        edges.dedup();
-        Mesh {
-            rest,
-            inv_mass: vec![(n * n) as f64; (n * n) as usize],
-            edges,
-            triangles,
-        }
-    }
-
-    fn object(&self) -> ObjectView<'_> {
-        ObjectView {
-            edges: RSlice::from_slice(&self.edges),
-            triangles: RSlice::from_slice(&self.triangles),
-            ..ObjectView::new("cloth", 0, self.rest.len() as u32)
-        }
-    }
-
-    /// The `stretch_newton` group of this mesh through the plugin's entry, with the kind's
-    /// parameter validation, as the host builds it.
-    fn group(&self, params: &str) -> Result<GroupBox, PluginError> {
-        let objects = [self.object()];
-        let scene = SceneView {
-            gravity: [0.0, 0.0, -9.81],
-            frame_dt: 1.0 / 60.0,
-            substeps: 2,
-            ..SceneView::new(&objects, &[0], &self.rest, &self.inv_mass)
-        };
-        crate::nucleus_plugin().create_group("stretch_newton", params, &scene)
-    }
-}
-
-/// The particle state the core would own, and the substep length.
-struct State {
-    x: Vec<[f64; 3]>,
-    v: Vec<[f64; 3]>,
-    x0: Vec<[f64; 3]>,
-    inv_mass: Vec<f64>,
-    object: Vec<u32>,
-    flags: Vec<u32>,
-    h: f64,
-    frame: u64,
-}
-
-impl State {
-    fn new(mesh: &Mesh, x: Vec<[f64; 3]>, h: f64) -> State {
-        let n = x.len();
-        State {
-            x0: x.clone(),
-            x,
-            v: vec![[0.0; 3]; n],
-            inv_mass: mesh.inv_mass.clone(),
-            object: vec![0; n],
-            flags: vec![0; n],
-            h,
-            frame: 0,
-        }
-    }
-
-    fn ctx(&mut self) -> SolveContext<'_> {
-        let (h, frame) = (self.h, self.frame);
-        SolveContext {
-            frame,
-            ..SolveContext::new(
-                &mut self.x,
-                &mut self.v,
-                &self.x0,
-                &self.inv_mass,
-                &self.object,
-                &self.flags,
-                h,
-            )
-        }
-    }
-
-    fn begin(&mut self, group: &mut GroupBox) {
-        group
-            .begin_substep(&mut self.ctx())
-            .into_result()
-            .expect("begin_substep");
-    }
-
-    fn project(&mut self, group: &mut GroupBox) {
-        group
-            .project(&mut self.ctx())
-            .into_result()
-            .expect("project");
-    }
-
-    /// One substep as the core runs it: gravity into the free particles' velocities, the
-    /// prediction `x = x0 + h v`, `begin_substep`, `passes` projections, `v = (x − x0)/h`.
-    fn substep(&mut self, group: &mut GroupBox, gravity: DVec3, passes: u32) {
-        let h = self.h;
-        self.x0.clone_from(&self.x);
-        for ((x, v), &w) in self.x.iter_mut().zip(self.v.iter_mut()).zip(&self.inv_mass) {
-            if w > 0.0 {
-                for k in 0..3 {
-                    v[k] += h * gravity[k];
-                    x[k] += h * v[k];
-                }
-            }
-        }
-        self.begin(group);
-        for _ in 0..passes {
-            self.project(group);
-        }
-        for ((v, x), x0) in self.v.iter_mut().zip(&self.x).zip(&self.x0) {
-            for k in 0..3 {
-                v[k] = (x[k] - x0[k]) / h;
-            }
-        }
-    }
-
-    fn residual(&mut self, group: &GroupBox) -> Residual {
-        group.residual(&self.ctx()).into_result().expect("residual")
-    }
-
-    fn report(&mut self, group: &GroupBox, name: &str) -> f64 {
-        let stats = group.report(&self.ctx()).into_result().expect("report");
-        stats
-            .iter()
-            .find(|s| s.name.as_str() == name)
-            .unwrap_or_else(|| panic!("no stat {name}"))
-            .value
-    }
-
-    fn all_finite(&self) -> bool {
-        self.x.iter().flatten().all(|c| c.is_finite())
-    }
-
-    fn bits(&self) -> Vec<u64> {
-        self.x.iter().flatten().map(|c| c.to_bits()).collect()
-    }
+/// The `stretch_newton` group of `mesh` through the plugin's entry, with the kind's parameter
+/// validation, as the host builds it.
+fn group(mesh: &Mesh, params: &str) -> Result<GroupBox, PluginError> {
+    mesh.with_scene(&[0], |scene| {
+        crate::nucleus_plugin().create_group("stretch_newton", params, scene)
+    })
 }
 
 fn p(a: [f64; 3]) -> DVec3 {
@@ -297,9 +146,9 @@ fn hanging_particle(
         edges: vec![[0, 1]],
         triangles: Vec::new(),
     };
-    let mut group = mesh.group(params).expect("group");
+    let mut group = group(&mesh, params).expect("group");
     let h = 1.0 / 60.0;
-    let mut state = State::new(&mesh, mesh.rest.clone(), h);
+    let mut state = State::with_substep(&mesh, mesh.rest.clone(), h);
     let g = DVec3::new(0.0, 0.0, -9.81);
     // x̃ = x0 + h (v + h g).
     let target = p(start) + (velocity + g * h) * h;
@@ -396,16 +245,16 @@ fn a_particle_on_one_spring_converges_to_the_exact_backward_euler_step() {
 /// along −z, `frames` frames of 2 substeps × 2 passes at 60 frames/s, with the kind's default
 /// parameters.
 fn hanging_cloth(frames: u64) -> Cloth {
-    let mut mesh = Mesh::grid(16);
+    let mut mesh = grid(16);
     mesh.inv_mass[0] = 0.0;
     mesh.inv_mass[16] = 0.0;
-    let mut group = mesh.group("{}").expect("group");
-    let mut state = State::new(&mesh, mesh.rest.clone(), 1.0 / 120.0);
+    let mut group = group(&mesh, "{}").expect("group");
+    let mut state = State::with_substep(&mesh, mesh.rest.clone(), 1.0 / 120.0);
     let (mut worst, mut lowest): (f64, f64) = (0.0, 0.0);
     for frame in 0..frames {
         state.frame = frame;
         for _ in 0..2 {
-            state.substep(&mut group, DVec3::new(0.0, 0.0, -9.81), 2);
+            state.substep_under(&mut group, DVec3::new(0.0, 0.0, -9.81), 2);
         }
         assert!(state.all_finite(), "NaN at frame {frame}");
         worst = worst.max(state.residual(&group).max);
@@ -481,11 +330,11 @@ fn two_identical_runs_give_the_same_bits() {
 fn pins_stay_where_the_scene_puts_them() {
     // The core moves a pin along its motion before the passes; the group must neither pull it
     // back nor move it further.
-    let mut mesh = Mesh::grid(4);
+    let mut mesh = grid(4);
     mesh.inv_mass[0] = 0.0;
     mesh.inv_mass[4] = 0.0;
-    let mut group = mesh.group("{}").expect("group");
-    let mut state = State::new(&mesh, mesh.rest.clone(), 1.0 / 120.0);
+    let mut group = group(&mesh, "{}").expect("group");
+    let mut state = State::with_substep(&mesh, mesh.rest.clone(), 1.0 / 120.0);
     for frame in 0..10 {
         state.frame = frame;
         state.x0.clone_from(&state.x);
@@ -507,17 +356,7 @@ fn pins_stay_where_the_scene_puts_them() {
 /// The stretched and wobbled rest shape of `mesh`: every position scaled by `factor` in x
 /// and y, with a deterministic wobble in z.
 fn stretched(mesh: &Mesh, factor: f64) -> Vec<[f64; 3]> {
-    mesh.rest
-        .iter()
-        .enumerate()
-        .map(|(k, p)| {
-            [
-                p[0] * factor,
-                p[1] * factor,
-                0.02 * ((k * 7 % 5) as f64 - 2.0),
-            ]
-        })
-        .collect()
+    stretched_by(mesh, factor, 0.02)
 }
 
 /// A free 9 × 9 cloth with uneven masses (1/2 to 3/2 of 1/81 kg), stretched by 5 % and
@@ -525,15 +364,15 @@ fn stretched(mesh: &Mesh, factor: f64) -> Vec<[f64; 3]> {
 /// bound `h² √(3n) ρ |∇E(x̃)|` that CG's residual reduction `ρ` implies, `Σ m |x − x̃|` and
 /// `ρ` (the group's `cg_reduction`).
 fn momentum_after_one_pass(params: &str) -> (f64, f64, f64, f64) {
-    let mut mesh = Mesh::grid(8);
+    let mut mesh = grid(8);
     let n = mesh.rest.len();
     for (k, w) in mesh.inv_mass.iter_mut().enumerate() {
         *w = 81.0 / (0.5 + (k * 37 % 11) as f64 / 10.0);
     }
-    let mut group = mesh.group(params).expect("group");
+    let mut group = group(&mesh, params).expect("group");
     let h = 1.0 / 120.0;
     let start = stretched(&mesh, 1.05);
-    let mut state = State::new(&mesh, start.clone(), h);
+    let mut state = State::with_substep(&mesh, start.clone(), h);
     state.begin(&mut group);
     state.project(&mut group);
     let reduction = state.report(&group, "cg_reduction");
@@ -587,11 +426,12 @@ fn a_pass_conserves_linear_momentum_to_the_cg_residual() {
 
 #[test]
 fn coincident_particles_produce_no_nan() {
-    let mesh = Mesh::grid(3);
-    let mut group = mesh.group("{}").expect("group");
-    let mut state = State::new(&mesh, vec![[0.25, -0.5, 1.0]; mesh.rest.len()], 1.0 / 120.0);
+    let mesh = grid(3);
+    let mut group = group(&mesh, "{}").expect("group");
+    let mut state =
+        State::with_substep(&mesh, vec![[0.25, -0.5, 1.0]; mesh.rest.len()], 1.0 / 120.0);
     for _ in 0..3 {
-        state.substep(&mut group, DVec3::ZERO, 2);
+        state.substep(&mut group, 2);
     }
     assert!(state.all_finite());
     let r = state.residual(&group);
@@ -603,27 +443,27 @@ fn coincident_particles_produce_no_nan() {
 
 #[test]
 fn bad_geometry_is_an_error_naming_the_object() {
-    let mut mesh = Mesh::grid(1);
+    let mut mesh = grid(1);
     mesh.edges.push([2, 9]);
-    let e = mesh
-        .group("{}")
+    let e = group(&mesh, "{}")
         .err()
         .expect("an edge outside its object accepted");
     assert_eq!(e.code, PluginError::BAD_OBJECT);
     assert_eq!(e.subject.as_str(), "cloth");
     assert!(e.message.as_str().contains("(2, 9)"), "{e}");
 
-    let mut mesh = Mesh::grid(1);
+    let mut mesh = grid(1);
     mesh.edges.push([1, 1]);
-    let e = mesh.group("{}").err().expect("an edge to itself accepted");
+    let e = group(&mesh, "{}")
+        .err()
+        .expect("an edge to itself accepted");
     assert_eq!(e.code, PluginError::BAD_OBJECT);
     assert_eq!(e.subject.as_str(), "cloth");
 
     for bad in [f64::NAN, f64::INFINITY] {
-        let mut mesh = Mesh::grid(2);
+        let mut mesh = grid(2);
         mesh.rest[4][1] = bad;
-        let e = mesh
-            .group("{}")
+        let e = group(&mesh, "{}")
             .err()
             .expect("a non-finite rest position accepted");
         assert_eq!(e.code, PluginError::BAD_OBJECT);
@@ -634,7 +474,7 @@ fn bad_geometry_is_an_error_naming_the_object() {
 
 #[test]
 fn parameters_out_of_range_are_refused_naming_them() {
-    let mesh = Mesh::grid(2);
+    let mesh = grid(2);
     for (params, name) in [
         (r#"{"compliance": 0}"#, "compliance"),
         (r#"{"compliance": -1e-6}"#, "compliance"),
@@ -646,11 +486,11 @@ fn parameters_out_of_range_are_refused_naming_them() {
         (r#"{"coarsest": 1}"#, "coarsest"),
         (r#"{"stiffness": 1e8}"#, "stiffness"),
     ] {
-        let e = mesh.group(params).err().expect(params);
+        let e = group(&mesh, params).err().expect(params);
         assert_eq!(e.code, PluginError::BAD_PARAMETER, "{params}: {e}");
         assert_eq!(e.subject.as_str(), name, "{params}: {e}");
     }
-    assert!(mesh.group(r#"{"compliance": 1e-15}"#).is_ok());
+    assert!(group(&mesh, r#"{"compliance": 1e-15}"#).is_ok());
 }
 
 #[test]
@@ -679,8 +519,8 @@ fn the_kind_describes_itself() {
     for p in &infos {
         assert!(!p.doc.is_empty(), "{} has no doc", p.name);
     }
-    let mesh = Mesh::grid(2);
-    let group = mesh.group("{}").expect("group");
+    let mesh = grid(2);
+    let group = group(&mesh, "{}").expect("group");
     let stages = group.stages();
     assert!(
         stages.contains(Stages::PROJECT | Stages::BEGIN_SUBSTEP),
@@ -694,7 +534,7 @@ fn the_core_asks_for_the_report() {
     // The core calls `report` only on groups whose stages include REPORT; the module docs
     // promise `cg_iterations`, `cg_reduction`, `halvings`, `levels` and
     // `operator_complexity` in the stats.
-    let group = Mesh::grid(2).group("{}").expect("group");
+    let group = group(&grid(2), "{}").expect("group");
     let stages = group.stages();
     assert!(
         stages.contains(Stages::REPORT),

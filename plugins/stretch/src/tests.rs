@@ -10,18 +10,19 @@ use crate::{nucleus_plugin, StretchGroup, StretchParams};
 
 const H: f64 = 1.0 / 240.0;
 
-/// One object: particles with rest positions and inverse masses, and its edges.
-struct Mesh {
-    rest: Vec<[f64; 3]>,
-    inv_mass: Vec<f64>,
-    edges: Vec<[u32; 2]>,
-    triangles: Vec<[u32; 3]>,
+/// One object: particles with rest positions and inverse masses, and its edges (shared with
+/// the other kinds' tests).
+pub(crate) struct Mesh {
+    pub(crate) rest: Vec<[f64; 3]>,
+    pub(crate) inv_mass: Vec<f64>,
+    pub(crate) edges: Vec<[u32; 2]>,
+    pub(crate) triangles: Vec<[u32; 3]>,
 }
 
 impl Mesh {
     /// A flat square grid of `cells × cells` quads, each split into two triangles, with side
     /// `size` (m) and unit masses; `edges` holds every edge of the triangles.
-    fn grid(cells: u32, size: f64) -> Self {
+    pub(crate) fn grid(cells: u32, size: f64) -> Self {
         let n = cells + 1;
         let rest = (0..n * n)
             .map(|k| {
@@ -66,7 +67,7 @@ impl Mesh {
         }
     }
 
-    fn object(&self) -> ObjectView<'_> {
+    pub(crate) fn object(&self) -> ObjectView<'_> {
         ObjectView {
             edges: RSlice::from_slice(&self.edges),
             triangles: RSlice::from_slice(&self.triangles),
@@ -75,7 +76,7 @@ impl Mesh {
     }
 
     /// Runs `f` on a scene view holding this mesh as object 0, targeted as `targets` says.
-    fn with_scene<R>(&self, targets: &[u32], f: impl FnOnce(&SceneView<'_>) -> R) -> R {
+    pub(crate) fn with_scene<R>(&self, targets: &[u32], f: impl FnOnce(&SceneView<'_>) -> R) -> R {
         let objects = [self.object()];
         let scene = SceneView {
             gravity: [0.0, 0.0, -9.81],
@@ -94,18 +95,27 @@ impl Mesh {
     }
 }
 
-/// The particle state the core would own.
-struct State {
-    x: Vec<[f64; 3]>,
-    v: Vec<[f64; 3]>,
-    x0: Vec<[f64; 3]>,
-    inv_mass: Vec<f64>,
+/// The particle state the core would own, the substep length and the frame (shared with the
+/// other kinds' tests).
+pub(crate) struct State {
+    pub(crate) x: Vec<[f64; 3]>,
+    pub(crate) v: Vec<[f64; 3]>,
+    pub(crate) x0: Vec<[f64; 3]>,
+    pub(crate) inv_mass: Vec<f64>,
     object: Vec<u32>,
     flags: Vec<u32>,
+    h: f64,
+    pub(crate) frame: u64,
 }
 
 impl State {
-    fn new(mesh: &Mesh, x: Vec<[f64; 3]>) -> Self {
+    /// At `x`, at rest, with substeps of [`H`].
+    pub(crate) fn new(mesh: &Mesh, x: Vec<[f64; 3]>) -> Self {
+        Self::with_substep(mesh, x, H)
+    }
+
+    /// At `x`, at rest, with substeps of `h` (s).
+    pub(crate) fn with_substep(mesh: &Mesh, x: Vec<[f64; 3]>, h: f64) -> Self {
         let n = x.len();
         Self {
             x0: x.clone(),
@@ -114,13 +124,17 @@ impl State {
             inv_mass: mesh.inv_mass.clone(),
             object: vec![0; n],
             flags: vec![0; n],
+            h,
+            frame: 0,
         }
     }
 
-    fn ctx(&mut self) -> SolveContext<'_> {
+    pub(crate) fn ctx(&mut self) -> SolveContext<'_> {
+        let (h, frame) = (self.h, self.frame);
         SolveContext {
             gravity: [0.0, 0.0, -9.81],
             substeps: 10,
+            frame,
             ..SolveContext::new(
                 &mut self.x,
                 &mut self.v,
@@ -128,48 +142,82 @@ impl State {
                 &self.inv_mass,
                 &self.object,
                 &self.flags,
-                H,
+                h,
             )
         }
     }
 
-    /// One substep as the core runs it: prediction, `begin_substep`, `passes` projections,
-    /// velocity update. No external force.
-    fn substep(&mut self, group: &mut GroupBox, passes: u32) {
-        self.x0.clone_from(&self.x);
-        for (x, v) in self.x.iter_mut().zip(&self.v) {
-            for k in 0..3 {
-                x[k] += H * v[k];
-            }
-        }
+    pub(crate) fn begin(&mut self, group: &mut GroupBox) {
         group
             .begin_substep(&mut self.ctx())
             .into_result()
             .expect("begin");
+    }
+
+    pub(crate) fn project(&mut self, group: &mut GroupBox) {
+        group
+            .project(&mut self.ctx())
+            .into_result()
+            .expect("project");
+    }
+
+    /// One substep as the core runs it: prediction, `begin_substep`, `passes` projections,
+    /// velocity update. No external force.
+    pub(crate) fn substep(&mut self, group: &mut GroupBox, passes: u32) {
+        self.substep_under(group, DVec3::ZERO, passes);
+    }
+
+    /// One substep under `gravity` (m/s²): into the free particles' velocities, the prediction
+    /// `x = x0 + h v` of the free particles, `begin_substep`, `passes` projections,
+    /// `v = (x − x0)/h`.
+    pub(crate) fn substep_under(&mut self, group: &mut GroupBox, gravity: DVec3, passes: u32) {
+        let h = self.h;
+        self.x0.clone_from(&self.x);
+        for ((x, v), &w) in self.x.iter_mut().zip(self.v.iter_mut()).zip(&self.inv_mass) {
+            if w > 0.0 {
+                for k in 0..3 {
+                    v[k] += h * gravity[k];
+                    x[k] += h * v[k];
+                }
+            }
+        }
+        self.begin(group);
         for _ in 0..passes {
-            group
-                .project(&mut self.ctx())
-                .into_result()
-                .expect("project");
+            self.project(group);
         }
         for ((v, x), x0) in self.v.iter_mut().zip(&self.x).zip(&self.x0) {
             for k in 0..3 {
-                v[k] = (x[k] - x0[k]) / H;
+                v[k] = (x[k] - x0[k]) / h;
             }
         }
     }
 
-    fn residual(&mut self, group: &GroupBox) -> Residual {
+    pub(crate) fn residual(&mut self, group: &GroupBox) -> Residual {
         group.residual(&self.ctx()).into_result().expect("residual")
     }
 
-    fn all_finite(&self) -> bool {
+    /// The value of the stat `name` the group reports.
+    pub(crate) fn report(&mut self, group: &GroupBox, name: &str) -> f64 {
+        let stats = group.report(&self.ctx()).into_result().expect("report");
+        stats
+            .iter()
+            .find(|s| s.name.as_str() == name)
+            .unwrap_or_else(|| panic!("no stat {name}"))
+            .value
+    }
+
+    pub(crate) fn all_finite(&self) -> bool {
         self.x.iter().flatten().all(|c| c.is_finite())
+    }
+
+    pub(crate) fn bits(&self) -> Vec<u64> {
+        self.x.iter().flatten().map(|c| c.to_bits()).collect()
     }
 }
 
-/// The rest shape stretched by `factor` in x and y, with a deterministic wobble in z.
-fn stretched(mesh: &Mesh, factor: f64) -> Vec<[f64; 3]> {
+/// The rest shape of `mesh` stretched by `factor` in x and y, with a deterministic wobble of
+/// amplitude `2 wobble` (m) in z.
+pub(crate) fn stretched_by(mesh: &Mesh, factor: f64, wobble: f64) -> Vec<[f64; 3]> {
     mesh.rest
         .iter()
         .enumerate()
@@ -177,10 +225,15 @@ fn stretched(mesh: &Mesh, factor: f64) -> Vec<[f64; 3]> {
             [
                 p[0] * factor,
                 p[1] * factor,
-                0.05 * ((k * 7 % 5) as f64 - 2.0),
+                wobble * ((k * 7 % 5) as f64 - 2.0),
             ]
         })
         .collect()
+}
+
+/// The rest shape stretched by `factor` in x and y, with a deterministic wobble in z.
+fn stretched(mesh: &Mesh, factor: f64) -> Vec<[f64; 3]> {
+    stretched_by(mesh, factor, 0.05)
 }
 
 fn bad_parameter(mesh: &Mesh, params: &str) -> PluginError {
