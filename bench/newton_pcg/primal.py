@@ -64,6 +64,20 @@ p.add_argument("--gmg", action="store_true",
                "the start (maximal independent sets of the edge graph, each dropped particle "
                "interpolated from its kept neighbours, as the stretch_hierarchy kind does; the "
                "same weights for x, y, z) with Galerkin operators R H P for every Hessian")
+p.add_argument("--rot", action="store_true",
+               help="with --gmg: every coarse particle carries a rotation too (six unknowns), "
+               "each dropped particle moved by its kept neighbours' rigid motions about their "
+               "current positions, the prolongators rebuilt from the current shape every "
+               "Newton step")
+p.add_argument("--rot-from", type=int, default=1, metavar="LEVEL",
+               help="with --rot: the coarse levels from LEVEL on (1: every coarse level) carry "
+               "rotations, the finer ones only translations")
+p.add_argument("--coarse-block", type=int, default=6, choices=(3, 6),
+               help="with --rot: Gauss-Seidel blocks of the rotating levels, 6 (a particle's "
+               "translation and rotation together) or 3 (each apart)")
+p.add_argument("--coarse-every", type=int, default=1, metavar="K",
+               help="with --gmg: recompute the prolongators and coarse operators only every "
+               "K-th Newton step (the finest level always the current Hessian)")
 p.add_argument("--coarsest", type=int, default=60, metavar="NODES",
                help="with --gmg: coarsen until a level has at most NODES particles")
 p.add_argument("--cost", action="store_true",
@@ -132,7 +146,8 @@ def geometric_prolongators(x_free, edges_free, coarsest):
     """Per level, the scalar interpolation (CSR, fine x coarse) of the free particles'
     hierarchy: a greedy maximal independent set kept (by index), each dropped particle moved by
     its kept neighbours weighted by inverse rest length; the next level's graph joins kept
-    particles within three edges through dropped ones. Kronecker'd with I3 for x, y, z."""
+    particles within three edges through dropped ones. Returns (P, kept) per level, P scalar;
+    `gmg_hierarchy` Kronecker's it with I3 for x, y, z (or adds rotations: `--rot`)."""
     n = len(x_free)
     graph = [dict() for _ in range(n)]
     for u, w in edges_free:
@@ -160,7 +175,7 @@ def geometric_prolongators(x_free, edges_free, coarsest):
             for c, w in par:
                 rows.append(v); cols.append(c); vals.append(w / tot)
         P = sp.csr_matrix((vals, (rows, cols)), shape=(n, len(kept)))
-        out.append(sp.kron(P, sp.eye(3), format="csr"))
+        out.append((P, kept))
         coarse = [dict() for _ in range(len(kept))]
         for a_, v in enumerate(kept):
             frontier = {v: 0.0}
@@ -200,10 +215,48 @@ def galerkin_hierarchy(Hf, prolongators, sweep):
     return ml
 
 
-def gmg_hierarchy(Hf):
+def rotational_prolongator(P, xf, xc, fine_dofs):
+    """The scalar interpolation `P` (fine x coarse particles) with each coarse particle's
+    rotation about its position `xc` added: a fine particle at `xf` moves by
+    sum_j w_j (t_j + theta_j x (xf - xc_j)); its own rotation (`fine_dofs` = 6) by
+    sum_j w_j theta_j. Rigid motions of the current shape are interpolated exactly."""
+    P = P.tocsr()
+    rows = np.repeat(np.arange(P.shape[0]), np.diff(P.indptr))
+    r = xf[rows] - xc[P.indices]
+    w = P.data
+    blk = np.zeros((len(w), fine_dofs, 6))
+    for axis in range(3):
+        blk[:, axis, axis] = w
+    # theta x r = -[r]_x theta
+    blk[:, 0, 4], blk[:, 0, 5] = w * r[:, 2], -w * r[:, 1]
+    blk[:, 1, 3], blk[:, 1, 5] = -w * r[:, 2], w * r[:, 0]
+    blk[:, 2, 3], blk[:, 2, 4] = w * r[:, 1], -w * r[:, 0]
+    if fine_dofs == 6:
+        for axis in range(3):
+            blk[:, 3 + axis, 3 + axis] = w
+    return sp.bsr_matrix((blk, P.indices, P.indptr),
+                         shape=(fine_dofs * P.shape[0], 6 * P.shape[1])).tocsr()
+
+
+def gmg_hierarchy(Hf, x_free):
     """The geometric hierarchy's V-cycle for `Hf`: Galerkin operators, block Gauss-Seidel."""
-    return galerkin_hierarchy(Hf, [(P, P.T.tocsr()) for P in gmg_prolongators],
-                              ("block_gauss_seidel", {"sweep": "symmetric", "blocksize": 3}))
+    if not a.rot:
+        pr = [sp.kron(P, sp.eye(3), format="csr") for P, _ in gmg_prolongators]
+        return galerkin_hierarchy(Hf, [(P, P.T.tocsr()) for P in pr],
+                                  ("block_gauss_seidel", {"sweep": "symmetric", "blocksize": 3}))
+    pr, xf, dofs, sizes = [], x_free, 3, [3]
+    for level, (P, kept) in enumerate(gmg_prolongators):
+        if level + 1 < a.rot_from:
+            R = sp.kron(P, sp.eye(3), format="csr")
+        else:
+            R = rotational_prolongator(P, xf, xf[kept], dofs)
+            dofs = 6
+        pr.append((R, R.T.tocsr()))
+        xf = xf[kept]
+        sizes.append(dofs)
+    sweeps = [("block_gauss_seidel", {"sweep": "symmetric", "blocksize": min(b, a.coarse_block)})
+              for b in sizes]
+    return galerkin_hierarchy(Hf, pr, sweeps)
 
 
 def galerkin_update(ml, Hf):
@@ -219,8 +272,17 @@ def amg_solve(Hf, rhs, x_free):
     hierarchy is built every `a.rebuild`-th call, reused (frozen or Galerkin-updated) between."""
     global amg_cached
     own = True  # whether the V-cycle's finest operator is Hf itself
-    if a.gmg:
-        ml = gmg_hierarchy(Hf)
+    if a.gmg and (amg_cached is None or amg_state["calls"] % a.coarse_every == 0):
+        amg_cached = ml = gmg_hierarchy(Hf, x_free)
+    elif a.gmg:
+        from pyamg.relaxation.smoothing import change_smoothers
+
+        ml = amg_cached
+        ml.levels[0].A = Hf.tocsr()
+        sizes = [3] + [6 if a.rot else 3] * (len(ml.levels) - 1)
+        change_smoothers(ml, *[[("block_gauss_seidel", {"sweep": "symmetric",
+                                                          "blocksize": min(b, a.coarse_block)})
+                                 for b in sizes]] * 2)
     elif amg_cached is None or amg_state["calls"] % a.rebuild == 0:
         amg_cached = ml = amg_hierarchy(Hf, x_free)
     elif a.galerkin:
@@ -324,7 +386,7 @@ if a.gmg:
     keep = free[ea] & free[eb]
     gmg_prolongators = geometric_prolongators(X[free], np.c_[fi[ea[keep]], fi[eb[keep]]],
                                               a.coarsest)
-    print("geometric levels:", [P.shape for P in gmg_prolongators])
+    print("geometric levels:", [P.shape for P, _ in gmg_prolongators])
 for fr in range(a.frames):
     for s in range(a.S):
         xo = x.copy()

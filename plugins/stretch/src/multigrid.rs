@@ -33,6 +33,10 @@ pub type Rows = std::ops::Range<usize>;
 /// Levels with fewer block rows than this run on the calling thread.
 pub const PARALLEL_MIN_ROWS: usize = 2048;
 
+/// Relative regularisation of a rigid level's diagonal blocks
+/// ([`BlockMatrix::regularize_diagonal`]).
+pub const ROTATION_REGULARIZATION: f64 = 1e-10;
+
 /// Rows per block of the Gauss-Seidel sweeps' colouring ([`BlockMatrix::block_colours`]).
 pub const GAUSS_SEIDEL_BLOCK: usize = 256;
 
@@ -93,6 +97,25 @@ impl BlockMatrix {
             .binary_search(&j)
             .ok()
             .map(|k| range.start + k)
+    }
+
+    /// Adds `ε tr(D)/3 · I` to every diagonal block `D`, and makes a zero diagonal block the
+    /// identity: a rigid level's rotation about a line through collinear particles (a curve's
+    /// tangent) moves nothing, so its row of `Pᵀ A P` is singular; so is the rotation of a
+    /// particle without edges. Their restricted residual is zero too, so any positive value
+    /// serves; `ε` keeps the others' change below the rounding of the Galerkin sums.
+    pub fn regularize_diagonal(&mut self, epsilon: f64) {
+        for &d in &self.diag {
+            let block = &mut self.val[d as usize];
+            let trace = block.x_axis.x + block.y_axis.y + block.z_axis.z;
+            *block += if trace > 0.0 {
+                DMat3::IDENTITY * (epsilon * trace / 3.0)
+            } else if *block == DMat3::ZERO {
+                DMat3::IDENTITY
+            } else {
+                DMat3::ZERO
+            };
+        }
     }
 
     /// Sets every block to zero, keeping the pattern.
@@ -163,18 +186,74 @@ impl BlockMatrix {
     }
 }
 
-/// A scalar interpolation from `coarse` particles to fine ones, one row per fine particle:
-/// `(fine)ᵢ = Σₖ weightₖ (coarse)_{col k}` over the row's entries (applied to each of x, y, z).
+/// An interpolation from a coarse level's nodes (3-vectors) to a fine level's, one row per
+/// fine node: `(fine)ᵢ = Σₖ Bₖ (coarse)_{col k}` over the row's entries, each block `Bₖ` either
+/// a copy `wₖ I` (a node moved by its coarse parent's translation, or a rotation copied from
+/// the parent's rotation) or a turn `wₖ S(rₖ)`, `S(r) θ = θ × r`: a fine particle at lever arm
+/// `rₖ` from its coarse parent carried round by the parent's rotation `θ`.
+///
+/// [`from_coarsening`](Self::from_coarsening) gives the plain interpolation (copies only,
+/// `P = P_s ⊗ I₃`); [`rigid`](Self::rigid) one whose coarse particles each carry a
+/// translation and a rotation (two nodes), so that the rigid motions of the *current* shape,
+/// whole or local, are interpolated exactly: the lever arms are refitted to the positions by
+/// [`refit`](Self::refit).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Prolongation {
-    /// Number of coarse particles.
+    /// Number of coarse nodes.
     pub coarse: usize,
     /// `start[i]..start[i + 1]`: the entries of fine row `i`.
     pub start: Vec<u32>,
-    /// Coarse particle of each entry.
+    /// Coarse node of each entry.
     pub col: Vec<u32>,
     /// Weight of each entry.
     pub weight: Vec<f64>,
+    /// Whether each entry is a turn (else a copy).
+    pub turn: Vec<bool>,
+    /// Lever arm of each turn entry (m; zero for a copy).
+    pub arm: Vec<DVec3>,
+    /// Per turn entry, the positions' indices (fine particle, coarse particle) its lever arm
+    /// is the difference of (`[u32::MAX; 2]` for a copy).
+    pub origin: Vec<[u32; 2]>,
+}
+
+/// The prolongations of a [`crate::hierarchy::Coarsening`] of `fine` particles, finest first:
+/// plain ([`Prolongation::from_coarsening`]) or, if `rigid`, carrying rotations
+/// ([`Prolongation::rigid`], the lever arms indexing the fine particles' positions).
+pub fn prolongations(
+    fine: usize,
+    coarsening: &crate::hierarchy::Coarsening,
+    rigid: bool,
+) -> Vec<Prolongation> {
+    let mut fine_n = fine;
+    let mut out = Vec::new();
+    // The finest particle each level's particles stand for (their positions).
+    let mut origin: Vec<u32> = (0..fine as u32).collect();
+    for (level, (kept, dropped)) in coarsening.kept.iter().zip(&coarsening.dropped).enumerate() {
+        out.push(if rigid {
+            Prolongation::rigid(fine_n, level > 0, kept, dropped, &origin)
+        } else {
+            Prolongation::from_coarsening(fine_n, kept, dropped)
+        });
+        origin = kept.iter().map(|&k| origin[k as usize]).collect();
+        fine_n = kept.len();
+    }
+    out
+}
+
+/// `S(r)ᵀ m` with `S(r) θ = θ × r`: `r ×` each column of `m`.
+#[inline]
+fn turn_left(r: DVec3, m: DMat3) -> DMat3 {
+    DMat3::from_cols(r.cross(m.x_axis), r.cross(m.y_axis), r.cross(m.z_axis))
+}
+
+/// `m S(r)`: column `k` is `m (eₖ × r)`.
+#[inline]
+fn turn_right(m: DMat3, r: DVec3) -> DMat3 {
+    DMat3::from_cols(
+        m * DVec3::new(0.0, -r.z, r.y),
+        m * DVec3::new(r.z, 0.0, -r.x),
+        m * DVec3::new(-r.y, r.x, 0.0),
+    )
 }
 
 impl Prolongation {
@@ -199,26 +278,127 @@ impl Prolongation {
         };
         for row in rows {
             for (c, w) in row {
-                p.col.push(c);
-                p.weight.push(w);
+                p.push(c, w, None);
             }
             p.start.push(p.col.len() as u32);
         }
         p
     }
 
-    /// Number of fine particles.
+    /// The rigid interpolation of a level of [`crate::hierarchy::coarsen`] (`kept`, `dropped`
+    /// as for [`from_coarsening`](Self::from_coarsening)) over `fine` particles: coarse
+    /// particle `c` has nodes `2c` (translation) and `2c + 1` (rotation about its position).
+    /// A fine particle's translation — its node `f`, or `2f` when `fine_rotates` (the fine
+    /// level is itself rigid) — copies its coarse self's translation if kept, else is
+    /// `Σ w (t_c + θ_c × (x_f − x_c))` over its parents; its rotation (node `2f + 1`, when
+    /// `fine_rotates`) is `Σ w θ_c`. `origin[f]` indexes the fine particle's position for
+    /// [`refit`](Self::refit); the coarse particles' are `origin[kept[c]]`.
+    pub fn rigid(
+        fine: usize,
+        fine_rotates: bool,
+        kept: &[u32],
+        dropped: &[crate::hierarchy::Dropped],
+        origin: &[u32],
+    ) -> Prolongation {
+        let mut parents: Vec<Vec<(u32, f64)>> = vec![Vec::new(); fine];
+        let mut is_kept = vec![false; fine];
+        for (k, &f) in kept.iter().enumerate() {
+            parents[f as usize].push((k as u32, 1.0));
+            is_kept[f as usize] = true;
+        }
+        for (f, list) in dropped {
+            parents[*f as usize].extend_from_slice(list);
+        }
+        let mut p = Prolongation {
+            coarse: 2 * kept.len(),
+            start: vec![0],
+            ..Prolongation::default()
+        };
+        for (f, list) in parents.iter().enumerate() {
+            for &(c, w) in list {
+                p.push(2 * c, w, None);
+                if !is_kept[f] {
+                    let pair = [origin[f], origin[kept[c as usize] as usize]];
+                    p.push(2 * c + 1, w, Some(pair));
+                }
+            }
+            p.start.push(p.col.len() as u32);
+            if fine_rotates {
+                for &(c, w) in list {
+                    p.push(2 * c + 1, w, None);
+                }
+                p.start.push(p.col.len() as u32);
+            }
+        }
+        p
+    }
+
+    fn push(&mut self, col: u32, weight: f64, turn: Option<[u32; 2]>) {
+        self.col.push(col);
+        self.weight.push(weight);
+        self.turn.push(turn.is_some());
+        self.arm.push(DVec3::ZERO);
+        self.origin.push(turn.unwrap_or([u32::MAX; 2]));
+    }
+
+    /// Number of fine nodes.
     pub fn fine(&self) -> usize {
         self.start.len() - 1
     }
 
-    /// The entries of fine row `i`.
-    fn row(&self, i: usize) -> impl Iterator<Item = (u32, f64)> + '_ {
+    /// Whether some entry is a turn.
+    pub fn rotates(&self) -> bool {
+        self.turn.contains(&true)
+    }
+
+    /// Sets each turn's lever arm to the difference of its two positions in `x`.
+    pub fn refit(&mut self, x: &[DVec3]) {
+        for ((arm, &turn), &[f, c]) in self.arm.iter_mut().zip(&self.turn).zip(&self.origin) {
+            if turn {
+                *arm = x[f as usize] - x[c as usize];
+            }
+        }
+    }
+
+    /// `B v` for entry `k`.
+    #[inline]
+    fn apply(&self, k: usize, v: DVec3) -> DVec3 {
+        let w = self.weight[k];
+        if self.turn[k] {
+            v.cross(self.arm[k]) * w
+        } else {
+            v * w
+        }
+    }
+
+    /// `Bᵀ v` for entry `k`.
+    #[inline]
+    fn apply_transposed(&self, k: usize, v: DVec3) -> DVec3 {
+        let w = self.weight[k];
+        if self.turn[k] {
+            self.arm[k].cross(v) * w
+        } else {
+            v * w
+        }
+    }
+
+    /// `Bᵢᵀ a Bⱼ` for entries `i` and `j`: a fine block's Galerkin term.
+    #[inline]
+    fn galerkin_term(&self, i: usize, a: DMat3, j: usize) -> DMat3 {
+        let mut m = a * (self.weight[i] * self.weight[j]);
+        if self.turn[j] {
+            m = turn_right(m, self.arm[j]);
+        }
+        if self.turn[i] {
+            m = turn_left(self.arm[i], m);
+        }
+        m
+    }
+
+    /// The entries of fine row `i`: (entry index, coarse node).
+    fn row(&self, i: usize) -> impl Iterator<Item = (usize, u32)> + '_ {
         let range = self.start[i] as usize..self.start[i + 1] as usize;
-        self.col[range.clone()]
-            .iter()
-            .copied()
-            .zip(self.weight[range].iter().copied())
+        range.clone().zip(self.col[range].iter().copied())
     }
 
     /// `fine += P coarse`, fine rows split over the team.
@@ -228,8 +408,8 @@ impl Prolongation {
         for_parts(team, self.fine(), &|rows| {
             for i in rows {
                 let mut sum = DVec3::ZERO;
-                for (c, w) in self.row(i) {
-                    sum += coarse[c as usize] * w;
+                for (k, c) in self.row(i) {
+                    sum += self.apply(k, coarse[c as usize]);
                 }
                 // SAFETY: `i < fine.len()` (asserted); each part adds to its own rows.
                 unsafe { *out.at(i) += sum };
@@ -241,8 +421,8 @@ impl Prolongation {
     pub fn restrict(&self, fine: &[DVec3], coarse: &mut [DVec3]) {
         coarse.iter_mut().for_each(|c| *c = DVec3::ZERO);
         for (i, f) in fine.iter().enumerate().take(self.fine()) {
-            for (c, w) in self.row(i) {
-                coarse[c as usize] += *f * w;
+            for (k, c) in self.row(i) {
+                coarse[c as usize] += self.apply_transposed(k, *f);
             }
         }
     }
@@ -256,9 +436,9 @@ struct Level {
     inv_diag: Vec<DMat3>,
     /// Interpolation from the next coarser level (none on the coarsest).
     p: Option<Prolongation>,
-    /// `(fine slot, coarse slot, weight)`: the coarse operator is `Σ weight · A[fine slot]`
-    /// accumulated into each coarse slot.
-    galerkin: Vec<(u32, u32, f64)>,
+    /// `(fine slot, coarse slot, entry i, entry j)`: the coarse operator is
+    /// `Σ Bᵢᵀ A[fine slot] Bⱼ` (the prolongation's entries) accumulated into each coarse slot.
+    galerkin: Vec<(u32, u32, u32, u32)>,
     /// Blocks of consecutive rows colour by colour, and each colour's range of blocks (see
     /// [`BlockMatrix::block_colours`]).
     blocks: Vec<std::ops::Range<usize>>,
@@ -291,8 +471,8 @@ impl Hierarchy {
             let mut pairs = Vec::new();
             for i in 0..a.n() {
                 for s in a.start[i] as usize..a.start[i + 1] as usize {
-                    for (ci, _) in p.row(i) {
-                        for (cj, _) in p.row(a.col[s] as usize) {
+                    for (_, ci) in p.row(i) {
+                        for (_, cj) in p.row(a.col[s] as usize) {
                             if ci < cj {
                                 pairs.push((ci, cj));
                             }
@@ -304,18 +484,18 @@ impl Hierarchy {
             let mut galerkin = Vec::new();
             for i in 0..a.n() {
                 for s in a.start[i] as usize..a.start[i + 1] as usize {
-                    for (ci, wi) in p.row(i) {
-                        for (cj, wj) in p.row(a.col[s] as usize) {
+                    for (ki, ci) in p.row(i) {
+                        for (kj, cj) in p.row(a.col[s] as usize) {
                             let t = coarse
                                 .slot(ci, cj)
                                 .expect("coarse pattern holds every pair");
-                            galerkin.push((s as u32, t as u32, wi * wj));
+                            galerkin.push((s as u32, t as u32, ki as u32, kj as u32));
                         }
                     }
                 }
             }
             // Accumulate coarse slots in order: better locality for the numeric product.
-            galerkin.sort_unstable_by_key(|&(s, t, _)| (t, s));
+            galerkin.sort_unstable_by_key(|&(s, t, ki, kj)| (t, s, ki, kj));
             let n = a.n();
             let (blocks, colours) = a.block_colours(GAUSS_SEIDEL_BLOCK);
             levels.push(Level {
@@ -343,6 +523,16 @@ impl Hierarchy {
         Hierarchy {
             levels,
             dense: vec![0.0; 9 * n * n],
+        }
+    }
+
+    /// Refits every rigid prolongation's lever arms to the positions `x` (see
+    /// [`Prolongation::refit`]); call before [`update`](Self::update).
+    pub fn refit(&mut self, x: &[DVec3]) {
+        for p in self.levels.iter_mut().filter_map(|l| l.p.as_mut()) {
+            if p.rotates() {
+                p.refit(x);
+            }
         }
     }
 
@@ -398,8 +588,11 @@ impl Hierarchy {
             });
             ok &= !bad.into_inner();
             if let Some(next) = coarse.first_mut() {
-                next.a.zero();
                 let g = &level.galerkin;
+                let p = level
+                    .p
+                    .as_ref()
+                    .expect("a prolongation on every level but the last");
                 let vals = SharedArray::new(&mut next.a.val);
                 let coarse_len = next.a.val.len();
                 for_parts(team, g.len(), &|range| {
@@ -410,14 +603,24 @@ impl Hierarchy {
                         }
                         k
                     };
-                    for &(s, t, w) in &g[edge(range.start)..edge(range.end)] {
-                        assert!((t as usize) < coarse_len);
+                    let terms = &g[edge(range.start)..edge(range.end)];
+                    // Each coarse block is the sum of its run of terms, stored once.
+                    for run in terms.chunk_by(|x, y| x.1 == y.1) {
+                        let t = run[0].1 as usize;
+                        assert!(t < coarse_len);
+                        let mut sum = DMat3::ZERO;
+                        for &(s, _, ki, kj) in run {
+                            sum += p.galerkin_term(ki as usize, a.val[s as usize], kj as usize);
+                        }
                         // SAFETY: in bounds (asserted); the terms of one coarse block are
                         // consecutive in `g` and all go to the part whose range holds the
                         // first of them, so no two parts write one block.
-                        unsafe { *vals.at(t as usize) += a.val[s as usize] * w };
+                        unsafe { *vals.at(t) = sum };
                     }
                 });
+                if p.rotates() {
+                    next.a.regularize_diagonal(ROTATION_REGULARIZATION);
+                }
             }
         }
         ok & self.factor_coarsest()

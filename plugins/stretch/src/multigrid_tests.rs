@@ -62,14 +62,29 @@ fn dense(a: &BlockMatrix) -> Vec<f64> {
     d
 }
 
-/// `P_s ⊗ I₃` as a dense `3 fine × 3 coarse` row-major array.
+/// Entry `e`'s block, built from its definition: `w I`, or `w S(r)` with column `k` of `S(r)`
+/// the rotation `eₖ × r`.
+fn entry_block(p: &Prolongation, e: usize) -> DMat3 {
+    let w = p.weight[e];
+    if p.turn[e] {
+        let r = p.arm[e];
+        DMat3::from_cols(DVec3::X.cross(r), DVec3::Y.cross(r), DVec3::Z.cross(r)) * w
+    } else {
+        DMat3::IDENTITY * w
+    }
+}
+
+/// `P` as a dense `3 fine × 3 coarse` row-major array.
 fn dense_prolongation(p: &Prolongation) -> Vec<f64> {
     let (rows, cols) = (3 * p.fine(), 3 * p.coarse);
     let mut d = vec![0.0; rows * cols];
     for i in 0..p.fine() {
         for e in p.start[i] as usize..p.start[i + 1] as usize {
-            for k in 0..3 {
-                d[(3 * i + k) * cols + 3 * p.col[e] as usize + k] += p.weight[e];
+            let b = entry_block(p, e);
+            for r in 0..3 {
+                for k in 0..3 {
+                    d[(3 * i + r) * cols + 3 * p.col[e] as usize + k] += b.col(k)[r];
+                }
             }
         }
     }
@@ -153,16 +168,24 @@ fn grid(n: u32) -> (Graph, Vec<(u32, u32)>, Vec<DVec3>) {
     (graph, pairs, pos)
 }
 
-/// The prolongations of `graph`'s coarsening, finest first, built as `newton.rs` builds them.
+/// The plain prolongations of `graph`'s coarsening, finest first, built as `newton.rs` builds
+/// them with `rotations = false`.
 fn prolongations(graph: &Graph, coarsest: usize) -> Vec<Prolongation> {
-    let c = coarsen(graph, &[], 64, coarsest);
-    let mut fine_n = graph.len();
-    let mut out = Vec::new();
-    for (kept, dropped) in c.kept.iter().zip(&c.dropped) {
-        out.push(Prolongation::from_coarsening(fine_n, kept, dropped));
-        fine_n = kept.len();
-    }
-    out
+    super::prolongations(graph.len(), &coarsen(graph, &[], 64, coarsest), false)
+}
+
+/// The rigid prolongations of `graph`'s coarsening (`rotations = true`), lever arms fitted to
+/// the particles' positions `x`.
+fn rigid_prolongations(graph: &Graph, coarsest: usize, x: &[DVec3]) -> Vec<Prolongation> {
+    let mut ps = super::prolongations(graph.len(), &coarsen(graph, &[], 64, coarsest), true);
+    ps.iter_mut().for_each(|p| p.refit(x));
+    ps
+}
+
+/// A crumpled shape of `rest`: every position moved by a pseudo-random 0.3 m, so that lever
+/// arms point every which way.
+fn crumpled(rest: &[DVec3], rng: &mut Rng) -> Vec<DVec3> {
+    rest.iter().map(|p| *p + rng.vec3() * 0.3).collect()
 }
 
 /// A random symmetric positive definite matrix on `pairs`: a random SPD diagonal block per
@@ -188,8 +211,9 @@ fn random_spd(n: usize, pairs: &[(u32, u32)], rng: &mut Rng) -> BlockMatrix {
 /// pinned (not unknowns), stretched by 1 % with a pseudo-random 1 cm wobble out of the plane;
 /// `M/h² + Σ k [n nᵀ + max(0, 1 − L/l)(I − n nᵀ)]` with h = 1/120 s and k = 1e8 N/m (the
 /// kind's default compliance). Returns the hierarchy over it (coarsest 16, as the kind's
-/// default) with the fine values set but not updated.
-fn cloth_hessian(side: u32) -> Hierarchy {
+/// default; with rotations if `rigid`) with the fine values set but not updated. `folded`:
+/// the half of the cloth beyond x = 0.5 is folded down by 90° (a crease along y).
+fn cloth_hessian(side: u32, rigid: bool, folded: bool) -> Hierarchy {
     let (_, pairs, rest) = grid(side);
     let n = rest.len();
     let pinned = |i: u32| i == 0 || i == side - 1;
@@ -204,7 +228,14 @@ fn cloth_hessian(side: u32) -> Hierarchy {
     let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
     let x: Vec<DVec3> = rest
         .iter()
-        .map(|p| *p * 1.01 + DVec3::Z * 0.01 * rng.next())
+        .map(|p| {
+            let p = if folded && p.x > 0.5 {
+                DVec3::new(0.5, p.y, 0.5 - p.x)
+            } else {
+                *p
+            };
+            p * 1.01 + DVec3::Z * 0.01 * rng.next()
+        })
         .collect();
     let free_pairs: Vec<(u32, u32)> = pairs
         .iter()
@@ -246,7 +277,16 @@ fn cloth_hessian(side: u32) -> Hierarchy {
             }
         }
     }
-    Hierarchy::new(a, prolongations(&graph, 16))
+    let ps = if rigid {
+        let x_free: Vec<DVec3> = (0..n)
+            .filter(|&i| unknown[i] != u32::MAX)
+            .map(|i| x[i])
+            .collect();
+        rigid_prolongations(&graph, 16, &x_free)
+    } else {
+        prolongations(&graph, 16)
+    };
+    Hierarchy::new(a, ps)
 }
 
 #[test]
@@ -362,11 +402,95 @@ fn prolongation_interpolates_and_restriction_is_its_transpose() {
 }
 
 #[test]
+fn rigid_prolongation_carries_rigid_motions_of_the_current_shape_exactly() {
+    let (graph, _, rest) = grid(9);
+    let mut rng = Rng(4242);
+    let x = crumpled(&rest, &mut rng);
+    let ps = rigid_prolongations(&graph, 4, &x);
+    let c = coarsen(&graph, &[], 64, 4);
+    assert!(ps.len() >= 2, "{} coarse levels", ps.len());
+    // A rigid motion of the whole shape: velocity t + θ × (x − o).
+    let (t, theta, o) = (rng.vec3(), rng.vec3(), rng.vec3());
+    let motion = |p: DVec3| t + theta.cross(p - o);
+    // The finest particle each level's particles stand for.
+    let mut origin: Vec<usize> = (0..rest.len()).collect();
+    for (l, p) in ps.iter().enumerate() {
+        let coarse_origin: Vec<usize> = c.kept[l].iter().map(|&k| origin[k as usize]).collect();
+        assert_eq!(p.coarse, 2 * coarse_origin.len());
+        // Coarse particle k: translation node 2k moves as the motion at its position, rotation
+        // node 2k + 1 is θ.
+        let coarse: Vec<DVec3> = coarse_origin
+            .iter()
+            .flat_map(|&f| [motion(x[f]), theta])
+            .collect();
+        let mut fine = vec![DVec3::ZERO; p.fine()];
+        p.add_to_fine(serial(), &coarse, &mut fine);
+        let expect: Vec<DVec3> = if l == 0 {
+            origin.iter().map(|&f| motion(x[f])).collect()
+        } else {
+            origin.iter().flat_map(|&f| [motion(x[f]), theta]).collect()
+        };
+        assert_eq!(fine.len(), expect.len());
+        let scale = norm(&expect);
+        for (i, (got, want)) in fine.iter().zip(&expect).enumerate() {
+            assert!(
+                (*got - *want).length() < 1e-14 * scale,
+                "level {l}, fine node {i}: {got} against {want}"
+            );
+        }
+        // A plain prolongation is exact for translations only: the rotation is what it misses.
+        if l == 0 {
+            let plain = &prolongations(&graph, 4)[0];
+            let moved: Vec<DVec3> = coarse_origin.iter().map(|&f| motion(x[f])).collect();
+            let mut linear = vec![DVec3::ZERO; plain.fine()];
+            plain.add_to_fine(serial(), &moved, &mut linear);
+            let miss = linear
+                .iter()
+                .zip(&expect)
+                .map(|(a, b)| (*a - *b).length())
+                .fold(0.0, f64::max);
+            assert!(
+                miss > 1e-3 * scale,
+                "linear interpolation misses only {miss:e}"
+            );
+        }
+        // ⟨P c, f⟩ = ⟨c, Pᵀ f⟩ with turns too.
+        let (cv, fv) = (rng.vector(p.coarse), rng.vector(p.fine()));
+        let mut pc = vec![DVec3::ZERO; p.fine()];
+        p.add_to_fine(serial(), &cv, &mut pc);
+        let mut ptf = vec![DVec3::splat(f64::NAN); p.coarse];
+        p.restrict(&fv, &mut ptf);
+        let (lhs, rhs) = (dot(&pc, &fv), dot(&cv, &ptf));
+        assert!(
+            (lhs - rhs).abs() < 1e-13 * norm(&pc) * norm(&fv),
+            "{lhs} vs {rhs}"
+        );
+        origin = coarse_origin;
+    }
+}
+
+#[test]
 fn coarse_operators_are_the_dense_galerkin_products() {
     let (graph, pairs, _) = grid(9);
     let mut rng = Rng(0x0123_4567_89ab_cdef);
     let a = random_spd(graph.len(), &pairs, &mut rng);
-    let ps = prolongations(&graph, 4);
+    galerkin_products_match(a, prolongations(&graph, 4));
+}
+
+#[test]
+fn coarse_operators_with_rotations_are_the_dense_galerkin_products() {
+    let (graph, pairs, rest) = grid(9);
+    let mut rng = Rng(0xfeed_beef_1234_5678);
+    let a = random_spd(graph.len(), &pairs, &mut rng);
+    let x = crumpled(&rest, &mut rng);
+    let ps = rigid_prolongations(&graph, 4, &x);
+    assert!(ps.iter().all(Prolongation::rotates));
+    galerkin_products_match(a, ps);
+}
+
+/// The hierarchy's coarse operators against dense `Pᵀ A P`, level by level, symmetric, and
+/// recomputed from zero by a second update.
+fn galerkin_products_match(a: BlockMatrix, ps: Vec<Prolongation>) {
     let mut h = Hierarchy::new(a.clone(), ps.clone());
     assert_eq!(h.depth(), ps.len() + 1);
     assert!(h.depth() >= 3, "sizes {:?}", h.sizes());
@@ -379,7 +503,17 @@ fn coarse_operators_are_the_dense_galerkin_products() {
         let (mf, mc) = (3 * p.fine(), 3 * p.coarse);
         let pd = dense_prolongation(p);
         let ap = dense_nn(&reference, &pd, mf, mf, mc);
-        let ptap = dense_tn(&pd, &ap, mf, mc, mc);
+        let mut ptap = dense_tn(&pd, &ap, mf, mc, mc);
+        if p.rotates() {
+            // The rigid levels' regularisation (`BlockMatrix::regularize_diagonal`).
+            for i in 0..mc / 3 {
+                let trace: f64 = (0..3).map(|k| ptap[(3 * i + k) * mc + 3 * i + k]).sum();
+                assert!(trace > 0.0, "level {}: node {i} has a zero diagonal", l + 1);
+                for k in 0..3 {
+                    ptap[(3 * i + k) * mc + 3 * i + k] += ROTATION_REGULARIZATION * trace / 3.0;
+                }
+            }
+        }
         let coarse = dense(&h.levels[l + 1].a);
         let err: Vec<f64> = coarse.iter().zip(&ptap).map(|(x, y)| x - y).collect();
         let rel = max_abs(&err) / max_abs(&ptap);
@@ -483,7 +617,7 @@ fn a_single_level_is_solved_exactly_and_an_indefinite_matrix_is_refused() {
 
 #[test]
 fn pcg_solves_the_cloth_hessian_to_1e_10() {
-    let mut h = cloth_hessian(33);
+    let mut h = cloth_hessian(33, false, false);
     assert!(h.update(serial()));
     let n = h.fine().n();
     assert_eq!(n, 33 * 33 - 2);
@@ -524,7 +658,7 @@ fn pcg_solves_the_cloth_hessian_to_1e_10() {
 
 #[test]
 fn pcg_from_a_zero_or_non_finite_right_hand_side_does_not_iterate() {
-    let mut h = cloth_hessian(5);
+    let mut h = cloth_hessian(5, false, false);
     assert!(h.update(serial()));
     let n = h.fine().n();
     let mut pcg = Pcg::new(n);
@@ -572,7 +706,7 @@ fn plain_cg(a: &BlockMatrix, b: &[DVec3], tolerance: f64, max_iterations: u32) -
 
 #[test]
 fn the_v_cycle_cuts_the_iterations_far_below_plain_cg() {
-    let mut h = cloth_hessian(33);
+    let mut h = cloth_hessian(33, false, false);
     assert!(h.update(serial()));
     let n = h.fine().n();
     let b = Rng(8).vector(n);
@@ -594,6 +728,51 @@ fn the_v_cycle_cuts_the_iterations_far_below_plain_cg() {
 }
 
 #[test]
+fn rotations_carry_a_swing_of_a_folded_cloth_in_few_iterations() {
+    // The residual of a swing of the folded half about the crease (x = 0.5, z = 0), the motion
+    // a Newton step truncated at a few CG iterations must carry: the error left after 5
+    // iterations, relative, in displacement.
+    let side = 33;
+    let swing: Vec<DVec3> = (0..side * side)
+        .filter(|&i| i != 0 && i != side - 1)
+        .map(|i| {
+            let px = (i % side) as f64 / (side - 1) as f64;
+            if px > 0.5 {
+                DVec3::new(-(px - 0.5), 0.0, 0.0)
+            } else {
+                DVec3::ZERO
+            }
+        })
+        .collect();
+    let mut errors = Vec::new();
+    for rigid in [false, true] {
+        let mut h = cloth_hessian(side, rigid, true);
+        assert!(h.update(serial()));
+        let n = h.fine().n();
+        let mut b = vec![DVec3::ZERO; n];
+        h.fine().mul(serial(), &swing, &mut b);
+        let mut x = vec![DVec3::ZERO; n];
+        let stats = Pcg::new(n).solve(serial(), &mut h, &b, &mut x, 5, 0.0);
+        assert_eq!(stats.iterations, 5);
+        let e: Vec<DVec3> = x.iter().zip(&swing).map(|(p, q)| *p - *q).collect();
+        let error = norm(&e) / norm(&swing);
+        println!(
+            "folded 33 x 33 cloth, a swing, 5 PCG iterations, rotations {rigid}: displacement error {error:.2e}, residual reduction {:.2e}, operator complexity {:.2}",
+            stats.reduction,
+            h.operator_complexity()
+        );
+        errors.push(error);
+    }
+    assert!(errors[1] < 0.02, "with rotations: error {:e}", errors[1]);
+    assert!(
+        4.0 * errors[1] <= errors[0],
+        "with rotations {:e}, without {:e}",
+        errors[1],
+        errors[0]
+    );
+}
+
+#[test]
 fn the_v_cycle_is_a_symmetric_positive_definite_operator() {
     // On the cloth Hessian and on a random SPD block matrix with random blocks.
     let (graph, pairs, _) = grid(9);
@@ -602,7 +781,17 @@ fn the_v_cycle_is_a_symmetric_positive_definite_operator() {
         random_spd(graph.len(), &pairs, &mut rng),
         prolongations(&graph, 4),
     );
-    for (what, mut h) in [("cloth", cloth_hessian(33)), ("random", random)] {
+    let x = crumpled(&grid(9).2, &mut rng);
+    let random_rigid = Hierarchy::new(
+        random_spd(graph.len(), &pairs, &mut rng),
+        rigid_prolongations(&graph, 4, &x),
+    );
+    for (what, mut h) in [
+        ("cloth", cloth_hessian(33, false, false)),
+        ("random", random),
+        ("folded cloth, rotations", cloth_hessian(33, true, true)),
+        ("random, rotations", random_rigid),
+    ] {
         assert!(h.update(serial()));
         assert!(h.depth() >= 3, "{what}: {:?}", h.sizes());
         let n = h.fine().n();
@@ -650,6 +839,9 @@ fn the_v_cycle_stays_symmetric_when_blocks_overflow_the_colours() {
         start: (0..=n as u32).collect(),
         col: (0..n as u32).map(|i| i % 2).collect(),
         weight: vec![1.0; n],
+        turn: vec![false; n],
+        arm: vec![DVec3::ZERO; n],
+        origin: vec![[u32::MAX; 2]; n],
     };
     let mut h = Hierarchy::new(a, vec![p]);
     assert!(h.update(serial()));
@@ -691,10 +883,14 @@ fn block_bits(v: &[DMat3]) -> Vec<u64> {
 
 #[test]
 fn a_two_part_team_gives_the_bits_of_one_thread() {
-    // 97 × 97: the two finest levels (9,407 and ~2,400 rows) have at least
-    // PARALLEL_MIN_ROWS rows, so their products, updates and Gauss-Seidel colours (several
-    // independent blocks each) are split over the team.
-    let mut one = cloth_hessian(97);
+    // 97 × 97: the two finest levels (9,407 and ~2,400 rows, twice that with rotations) have
+    // at least PARALLEL_MIN_ROWS rows, so their products, updates and Gauss-Seidel colours
+    // (several independent blocks each) are split over the team.
+    same_bits_on_two_parts(cloth_hessian(97, false, false));
+    same_bits_on_two_parts(cloth_hessian(97, true, true));
+}
+
+fn same_bits_on_two_parts(mut one: Hierarchy) {
     let mut two = one.clone();
     assert!(one.sizes()[1] >= PARALLEL_MIN_ROWS, "{:?}", one.sizes());
     let (_, colours) = one.fine().block_colours(GAUSS_SEIDEL_BLOCK);

@@ -92,9 +92,7 @@ use serde::Deserialize;
 
 use crate::distance::{EdgeMaterial, MIN_LENGTH};
 use crate::group::{edge_residual, Edges};
-use crate::multigrid::{
-    for_parts, BlockMatrix, CgStats, Hierarchy, Pcg, Prolongation, PARALLEL_MIN_ROWS,
-};
+use crate::multigrid::{for_parts, BlockMatrix, CgStats, Hierarchy, Pcg, PARALLEL_MIN_ROWS};
 use glam::DMat3;
 use nucleus_sdk::team::{span, SharedArray, TeamRef};
 
@@ -118,6 +116,8 @@ pub struct NewtonParams {
     pub cg_tolerance: f64,
     /// Coarsening stops once a level would have fewer particles than this.
     pub coarsest: i64,
+    /// Whether coarse particles carry rotations as well as translations.
+    pub rotations: bool,
 }
 
 impl NewtonParams {
@@ -144,6 +144,8 @@ impl NewtonParams {
             ParamSpec::integer("coarsest", 16)
                 .doc("the multigrid coarsens until a level would have fewer free particles than this; the coarsest level (up to about 4 times as many) is factored densely at every Newton step")
                 .range(2.0, 256.0),
+            ParamSpec::boolean("rotations", true)
+                .doc("each coarse particle of the multigrid carries a rotation about its current position as well as a translation, so that the coarse levels move the folded cloth's pieces rigidly (false: translations only, linear interpolation over the rest mesh, which leaves a cloth held up unless CG converges)"),
         ]
     }
 }
@@ -205,6 +207,8 @@ pub struct NewtonGroup {
     target: Vec<DVec3>,
     gradient: Vec<DVec3>,
     step: Vec<DVec3>,
+    /// The unknowns' positions at the Newton step (the multigrid's lever arms).
+    positions: Vec<DVec3>,
     hierarchy: Hierarchy,
     pcg: Pcg,
     max_index: Option<u32>,
@@ -280,17 +284,13 @@ impl NewtonGroup {
         }
         let coarsest = p.coarsest.max(2) as usize;
         let c = crate::hierarchy::coarsen(&graph, &[], 64, coarsest);
-        let mut fine_n = dof.len();
-        let mut prolongations = Vec::new();
-        for (kept, dropped) in c.kept.iter().zip(&c.dropped) {
-            prolongations.push(Prolongation::from_coarsening(fine_n, kept, dropped));
-            fine_n = kept.len();
-        }
+        let prolongations = crate::multigrid::prolongations(dof.len(), &c, p.rotations);
         let n = dof.len();
         Ok(NewtonGroup {
             target: vec![DVec3::ZERO; n],
             gradient: vec![DVec3::ZERO; n],
             step: vec![DVec3::ZERO; n],
+            positions: vec![DVec3::ZERO; n],
             hierarchy: Hierarchy::new(fine, prolongations),
             pcg: Pcg::new(n),
             dof,
@@ -487,6 +487,10 @@ impl ConstraintGroup for NewtonGroup {
         let team = ctx.team;
         let p = ctx.particles();
         self.assemble(team, p.x, p.inv_mass, h);
+        for (y, &i) in self.positions.iter_mut().zip(&self.dof) {
+            *y = p.x[i as usize];
+        }
+        self.hierarchy.refit(&self.positions);
         if !self.hierarchy.update(team) {
             return Err(PluginError::new(
                 PluginError::FAILED,
