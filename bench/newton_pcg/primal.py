@@ -3,7 +3,8 @@
 geometric stiffness, each Newton step a sparse direct solve. numpy + scipy. See README.md.
 
 usage: primal.py N SUBSTEPS NEWTON [--compliance ALPHA] [--frames 120] [--trace] [--amg CG]
-                 [--rebuild R [--galerkin]] [--gmg [--coarsest NODES]] [--cost]
+                 [--rebuild R [--galerkin]] [--gmg [--coarsest NODES] [--coarse-every K]
+                 [--rot [--rot-from LEVEL] [--coarse-block 3|6]]] [--cost]
 
 Per substep, implicit Euler on stiff springs (compliance ALPHA m/N, default 1e-8: the strain
 the compliance itself allows is ~1e-6 at the pins):
@@ -29,7 +30,11 @@ Prints CG iterations, relative residuals and the hierarchy's operator complexity
 With `--rebuild R`, the AMG hierarchy is built only every R-th Newton step and reused between
 (frozen, or with `--galerkin` its prolongators kept and its coarse operators recomputed); with
 `--gmg`, a geometric hierarchy fixed by the rest mesh (the `stretch_hierarchy` kind's
-coarsening) with Galerkin operators for every Hessian: what the `stretch_newton` kind builds.
+coarsening) with Galerkin operators for every Hessian: what the `stretch_newton` kind builds
+(`--coarse-every K`: the coarse levels recomputed only every K-th Newton step). `--rot` gives
+every coarse particle a rotation about its current position as well (six unknowns), each
+dropped particle moved by its parents' rigid motions, the prolongators rebuilt from the current
+shape every Newton step: the kind's `rotations = true`.
 
 With `--cost`, after the run: what one such CG iteration costs on the Hessian of the last
 positions (the hanging cloth), on one thread (run with OMP_NUM_THREADS=1), best of 5 repeats:

@@ -10,8 +10,8 @@
 //! ([`hierarchy`]: hierarchical position-based dynamics, Müller 2008), and `stretch` itself
 //! can accelerate its passes ([Chebyshev](#chebyshev-acceleration-optional)). A fourth kind,
 //! `stretch_newton` ([`newton`], its linear algebra in [`multigrid`]), replaces `stretch`: every
-//! edge a stiff spring, a global Newton step per pass solved by multigrid-preconditioned
-//! conjugate gradients. Their costs
+//! edge a stiff spring, a global Newton step per pass solved by conjugate gradients
+//! preconditioned by a multigrid whose coarse particles turn as well as move. Their costs
 //! and what they buy on the peers' drape are measured in `docs/peers.md`, below and in the
 //! README.
 //!

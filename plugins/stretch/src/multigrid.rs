@@ -1,12 +1,16 @@
 //! The linear algebra of the `stretch_newton` kind: a symmetric 3 × 3-block sparse matrix, a
-//! geometric multigrid hierarchy over it with Galerkin coarse operators, and conjugate
-//! gradients preconditioned by one V-cycle.
+//! multigrid hierarchy over it with Galerkin coarse operators, and conjugate gradients
+//! preconditioned by one V-cycle.
 //!
 //! * [`BlockMatrix`] — compressed sparse rows of 3 × 3 blocks, both triangles stored, the
 //!   pattern fixed at construction; a product costs one pass over the blocks.
-//! * [`Prolongation`] — a scalar interpolation from a coarse level's particles to a fine
-//!   level's (a kept particle copies its coarse self, a dropped one takes a weighted mean of
-//!   its coarse neighbours), applied to x, y and z alike: `P = P_s ⊗ I₃`.
+//! * [`Prolongation`] — an interpolation from a coarse level's particles to a fine level's (a
+//!   kept particle copies its coarse self, a dropped one takes a weighted mean of its coarse
+//!   neighbours): applied to x, y and z alike (`P = P_s ⊗ I₃`), or rigid — each coarse
+//!   particle a translation node and a rotation node, a dropped particle moved by its parents'
+//!   rigid motions about their current positions. Every level stays a matrix of 3 × 3 blocks
+//!   (a rigid level has two block rows per particle), so the products, sweeps and factor are
+//!   the same code.
 //! * [`Hierarchy`] — the levels. Its pattern, the prolongations and the symbolic Galerkin
 //!   product are built once; [`Hierarchy::update`] recomputes every coarse operator
 //!   `A_{l+1} = Pᵀ A_l P`, the diagonal blocks' inverses and the coarsest level's dense
@@ -437,8 +441,12 @@ struct Level {
     /// Interpolation from the next coarser level (none on the coarsest).
     p: Option<Prolongation>,
     /// `(fine slot, coarse slot, entry i, entry j)`: the coarse operator is
-    /// `Σ Bᵢᵀ A[fine slot] Bⱼ` (the prolongation's entries) accumulated into each coarse slot.
+    /// `Σ Bᵢᵀ A[fine slot] Bⱼ` (the prolongation's entries) accumulated into each coarse slot
+    /// of the upper triangle and the diagonal.
     galerkin: Vec<(u32, u32, u32, u32)>,
+    /// `(lower slot, upper slot)` of the next coarser level: the lower triangle is the upper
+    /// one transposed (the operator is symmetric), copied instead of summed — half the work.
+    mirror: Vec<(u32, u32)>,
     /// Blocks of consecutive rows colour by colour, and each colour's range of blocks (see
     /// [`BlockMatrix::block_colours`]).
     blocks: Vec<std::ops::Range<usize>>,
@@ -485,7 +493,7 @@ impl Hierarchy {
             for i in 0..a.n() {
                 for s in a.start[i] as usize..a.start[i + 1] as usize {
                     for (ki, ci) in p.row(i) {
-                        for (kj, cj) in p.row(a.col[s] as usize) {
+                        for (kj, cj) in p.row(a.col[s] as usize).filter(|&(_, cj)| ci <= cj) {
                             let t = coarse
                                 .slot(ci, cj)
                                 .expect("coarse pattern holds every pair");
@@ -496,6 +504,14 @@ impl Hierarchy {
             }
             // Accumulate coarse slots in order: better locality for the numeric product.
             galerkin.sort_unstable_by_key(|&(s, t, ki, kj)| (t, s, ki, kj));
+            let mut mirror = Vec::new();
+            for i in 0..coarse.n() {
+                for t in coarse.start[i] as usize..coarse.diag[i] as usize {
+                    let j = coarse.col[t];
+                    let upper = coarse.slot(j, i as u32).expect("the pattern is symmetric");
+                    mirror.push((t as u32, upper as u32));
+                }
+            }
             let n = a.n();
             let (blocks, colours) = a.block_colours(GAUSS_SEIDEL_BLOCK);
             levels.push(Level {
@@ -503,6 +519,7 @@ impl Hierarchy {
                 inv_diag: vec![DMat3::ZERO; n],
                 p: Some(p),
                 galerkin,
+                mirror,
                 blocks,
                 colours,
                 b: vec![DVec3::ZERO; n],
@@ -563,7 +580,8 @@ impl Hierarchy {
     }
 
     /// Recomputes the coarse operators, the diagonal inverses and the coarsest factor from
-    /// the fine matrix. Returns `false` if a diagonal block or the coarsest operator is not
+    /// the fine matrix, which must be symmetric (block `(j, i)` the transpose of `(i, j)`: the
+    /// coarse operators' lower triangles are copied from their upper ones). Returns `false` if a diagonal block or the coarsest operator is not
     /// positive definite (numerically), in which case the V-cycle must not be used.
     pub fn update(&mut self, team: TeamRef<'_>) -> bool {
         let mut ok = true;
@@ -616,6 +634,19 @@ impl Hierarchy {
                         // consecutive in `g` and all go to the part whose range holds the
                         // first of them, so no two parts write one block.
                         unsafe { *vals.at(t) = sum };
+                    }
+                });
+                let mirror = &level.mirror;
+                assert!(mirror
+                    .iter()
+                    .all(|&(l, u)| (l.max(u) as usize) < coarse_len));
+                for_parts(team, mirror.len(), &|range| {
+                    for &(lower, upper) in &mirror[range] {
+                        // SAFETY: in bounds (asserted); each lower slot is written by one part
+                        // and the upper slots are only read (written before, by the join above).
+                        unsafe {
+                            *vals.at(lower as usize) = (*vals.at(upper as usize)).transpose()
+                        };
                     }
                 });
                 if p.rotates() {
@@ -838,6 +869,22 @@ impl Pcg {
         max_iterations: u32,
         tolerance: f64,
     ) -> CgStats {
+        self.solve_to(team, h, b, x, max_iterations, tolerance, 0.0)
+    }
+
+    /// [`solve`](Self::solve), stopping also once the residual's norm is at most `floor`
+    /// (before any iteration if `b`'s is: then `x = 0`, no iteration and a reduction of 1).
+    #[allow(clippy::too_many_arguments)]
+    pub fn solve_to(
+        &mut self,
+        team: TeamRef<'_>,
+        h: &mut Hierarchy,
+        b: &[DVec3],
+        x: &mut [DVec3],
+        max_iterations: u32,
+        tolerance: f64,
+        floor: f64,
+    ) -> CgStats {
         x.iter_mut().for_each(|v| *v = DVec3::ZERO);
         self.r.copy_from_slice(b);
         let r0 = dot(&self.r, &self.r).sqrt();
@@ -847,6 +894,9 @@ impl Pcg {
         };
         if !(r0 > 0.0 && r0.is_finite()) {
             stats.reduction = if r0 == 0.0 { 0.0 } else { f64::NAN };
+            return stats;
+        }
+        if r0 <= floor {
             return stats;
         }
         h.v_cycle(team, &self.r, &mut self.z);
@@ -870,7 +920,7 @@ impl Pcg {
             stats.iterations += 1;
             let rn = dot(&self.r, &self.r).sqrt();
             stats.reduction = rn / r0;
-            if stats.reduction <= tolerance || stats.iterations == max_iterations {
+            if stats.reduction <= tolerance || rn <= floor || stats.iterations == max_iterations {
                 break;
             }
             h.v_cycle(team, &self.r, &mut self.z);

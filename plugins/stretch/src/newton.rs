@@ -1,7 +1,7 @@
 //! The `stretch_newton` kind: every edge of the target objects as a stiff spring, solved
 //! **globally** — one Newton step on the substep's implicit-Euler problem per pass, its linear
-//! system solved by conjugate gradients preconditioned by a geometric multigrid V-cycle
-//! ([`crate::multigrid`]). The paper's linearised alternative to Gauss-Seidel (Goldenthal et
+//! system solved by conjugate gradients preconditioned by a multigrid V-cycle whose coarse
+//! particles turn as well as move ([`crate::multigrid`]). The paper's linearised alternative to Gauss-Seidel (Goldenthal et
 //! al. 2007 solve the same constraints' linearisation globally), for hard cloth where edge
 //! passes need hundreds of substeps.
 //!
@@ -32,44 +32,52 @@
 //! (clamped to tension), so `H` is always symmetric positive definite: the mass term alone
 //! makes it so. `H s = −∇Φ` is solved approximately, by at most `cg_iterations` of
 //! preconditioned conjugate gradients from `s = 0`, stopping once the residual is
-//! `cg_tolerance` of the first, and a backtracking line search halves the step until `Φ`
+//! `cg_tolerance` of the first or of `∇Φ` at the substep's first pass (so that a step taken
+//! once the substep has converged does not spend its iterations on rounding: at the last of
+//! 2 × 4 passes CG used to run all 50 iterations and gain 2e-2), and a backtracking line
+//! search halves the step until `Φ`
 //! decreases (at most 30 halvings; no decrease, no move). Pins (inverse mass 0 at build time)
 //! are not unknowns: they hold the cloth wherever the scene moves them.
 
 //! ## The preconditioner
 //!
-//! A geometric multigrid built once from the target objects' edge graph over their free
-//! particles, as [`crate::hierarchy`] coarsens it: each level keeps a maximal independent set
-//! of the finer level's particles; a dropped particle is interpolated from its kept neighbours
-//! weighted by inverse rest length (the same weights for x, y and z). The coarse operators are
-//! Galerkin products `Pᵀ H P`, recomputed from each step's Hessian through a map built once;
-//! the coarsest level (at most about `4 × coarsest` particles) is solved by a dense Cholesky
-//! factor. One V-cycle is a forward block Gauss-Seidel sweep, the coarse correction and a
-//! backward sweep. Nothing is allocated after the group is built.
+//! A multigrid built once from the target objects' edge graph over their free particles, as
+//! [`crate::hierarchy`] coarsens it: each level keeps a maximal independent set of the finer
+//! level's particles; a dropped particle is interpolated from its kept neighbours weighted by
+//! inverse rest length. With `rotations` (the default) every coarse particle carries a
+//! translation and a rotation about its *current* position, and a dropped particle moves by
+//! its parents' rigid motions, `Σ w (t_c + θ_c × (x_f − x_c))` ([`crate::multigrid::Prolongation::rigid`]):
+//! the rigid motions of the current shape, whole or piece by piece, are interpolated exactly,
+//! so the coarse levels swing and fold the cloth as it is, not as it was at rest. The lever
+//! arms are refitted to the positions at every Newton step. Without `rotations` the same
+//! weights move x, y and z alike (linear interpolation over the rest mesh). The coarse operators
+//! are Galerkin products `Pᵀ H P`, recomputed from each step's Hessian through a map built
+//! once; the coarsest level (at most about `4 × coarsest` particles) is solved by a dense
+//! Cholesky factor. One V-cycle is a forward block Gauss-Seidel sweep, the coarse correction
+//! and a backward sweep. Nothing is allocated after the group is built.
 //!
 //! ## When to use it — and what the strain hides
 //!
 //! For cloth that must hardly stretch. Measured on the peers' drape (README, part 6 of the
-//! benchmark; 2 threads): converged — enough Newton steps a frame (8 × 2 or 2 × 4), each solved
-//! to 1e-6 — it moves the cloth as plain `stretch` at 320 substeps does (mean height within
-//! 3 cm at N = 32 and 64, `bench/motion.py`) with ten to a hundred times less strain (N = 64,
-//! 2 × 4: 124 ms a frame, max 0.020 %, RMS 0.0013 %), but at N = 128 it takes 483–591 ms a
-//! frame (4 × 2, 2 × 4; every cheaper setting measured lags), more than `stretch` with `tether`
-//! needs for 1 % / 0.1 % (237 ms).
+//! benchmark; 2 threads), with rotations: two substeps of four Newton steps, each of five CG
+//! iterations, move the cloth as plain `stretch` at 320 substeps does (mean height after 0.25 /
+//! 0.5 s within a few cm, `bench/motion.py`) with ten times less strain than `stretch` with
+//! `tether` at equal time at N = 64; at N = 128 it costs hundreds of ms a frame (README, part 6),
+//! well beyond the 16 ms target.
 //!
-//! **Cheap settings give low strain and the wrong motion.** With 5 CG iterations a step at
-//! 2 × 2 the 128 × 128 drape meets both strain bounds in 42–49 ms (max 0.61 %, RMS 0.023 %) but
-//! barely falls (mean height −0.09 m after 0.5 s, against −0.49 m). Two causes, both measured:
-//! two Newton steps a substep do not converge it from the prediction (N = 64, 2 × 2 with CG to
-//! 1e-8: −0.36 m at 0.5 s; four or more steps a substep are right), and truncated CG holds the
-//! cloth up further — the preconditioner's coarse levels interpolate linearly over the rest
-//! mesh, which does not represent the folded cloth's bending and swinging, so those motions
-//! (the ones strain does not measure) converge last.
-//! And a substep whose Newton iteration is not converged gains energy with stiff springs (the
-//! stress suite, `docs/stress.md`: one pass at compliance 1e-8, +34 %/s of the energy in
-//! play), where converged passes never do. Hence the defaults (at most 50 CG iterations, to
-//! 1e-6) and `scenes/drape_newton.toml`'s 8 × 2; fewer passes or iterations only with a check
-//! of the motion.
+//! **Cheap settings can give low strain and the wrong motion.** Without rotations, 5 CG
+//! iterations a step at 2 × 2 meet both strain bounds on the 128 × 128 drape in 42–49 ms (max
+//! 0.61 %, RMS 0.023 %) but the cloth barely falls (mean height −0.09 m after 0.5 s, against
+//! −0.49 m): linear interpolation over the rest mesh does not represent the folded cloth's
+//! swinging, so truncated CG leaves it out — what the rotations fix (a swing of a folded
+//! cloth: 0.8 % error after 5 iterations, 4.8 % without; `multigrid_tests.rs`). And with or
+//! without rotations two Newton steps a substep do not converge it from the prediction (N = 64,
+//! 2 × 2 with CG to 1e-8: −0.36 m at 0.5 s; four or more steps a substep are right; with
+//! rotations at N = 128, 2 × 2 × 5 CG: −0.16 m). And a substep whose Newton iteration is not
+//! converged gains energy with stiff springs (the stress suite, `docs/stress.md`: one pass at
+//! compliance 1e-8, +34 %/s of the energy in play), where converged passes never do. Hence the
+//! defaults (at most 50 CG iterations, to 1e-6) and `scenes/drape_newton.toml`'s 8 × 2; fewer
+//! passes or iterations only with a check of the motion.
 //!
 //! It is a penalty method: `compliance` must be positive. Its default, 1e-8 m/N, lets a
 //! 1 m, 1 kg cloth hanging from two corners stretch about 1e-5 at the pins. The default order
@@ -139,7 +147,7 @@ impl NewtonParams {
                 .doc("most preconditioned conjugate-gradient iterations per Newton step (one step per pass)")
                 .range(1.0, 10000.0),
             ParamSpec::number("cg_tolerance", 1e-6)
-                .doc("CG stops early once its residual is this fraction of the initial one")
+                .doc("CG stops early once its residual is this fraction of the initial one, or of the gradient at the substep's first pass")
                 .range(0.0, 1.0),
             ParamSpec::integer("coarsest", 16)
                 .doc("the multigrid coarsens until a level would have fewer free particles than this; the coarsest level (up to about 4 times as many) is factored densely at every Newton step")
@@ -213,6 +221,9 @@ pub struct NewtonGroup {
     pcg: Pcg,
     max_index: Option<u32>,
     last: CgStats,
+    /// The norm of `∇Φ` at the substep's first pass (NaN before it): CG stops once a later
+    /// step's residual is `cg_tolerance` of it.
+    substep_gradient: f64,
     halvings: u32,
     last_frame: u64,
 }
@@ -313,6 +324,7 @@ impl NewtonGroup {
             cg_tolerance: p.cg_tolerance,
             max_index,
             last: CgStats::default(),
+            substep_gradient: f64::NAN,
             halvings: 0,
             last_frame: u64::MAX,
         })
@@ -473,6 +485,7 @@ impl ConstraintGroup for NewtonGroup {
         for (t, &i) in self.target.iter_mut().zip(&self.dof) {
             *t = x[i as usize];
         }
+        self.substep_gradient = f64::NAN;
         Ok(())
     }
 
@@ -501,14 +514,24 @@ impl ConstraintGroup for NewtonGroup {
         for g in self.gradient.iter_mut() {
             *g = -*g;
         }
+        let norm = self
+            .gradient
+            .iter()
+            .map(|g| g.length_squared())
+            .sum::<f64>()
+            .sqrt();
+        if self.substep_gradient.is_nan() {
+            self.substep_gradient = norm;
+        }
         let mut step = std::mem::take(&mut self.step);
-        self.last = self.pcg.solve(
+        self.last = self.pcg.solve_to(
             team,
             &mut self.hierarchy,
             &self.gradient,
             &mut step,
             self.cg_iterations,
             self.cg_tolerance,
+            self.cg_tolerance * self.substep_gradient,
         );
         self.step = step;
         let mut partial = std::mem::take(&mut self.partial);

@@ -178,7 +178,9 @@ fn sci(v: &[f64]) -> String {
 
 #[test]
 fn a_particle_on_one_spring_converges_to_the_exact_backward_euler_step() {
-    let params = r#"{"compliance": 1e-4, "compression_compliance": 1e-2}"#;
+    // CG to rounding: the default tolerance stops a substep's steps once the gradient is 1e-6
+    // of its first (checked at the end).
+    let params = r#"{"compliance": 1e-4, "compression_compliance": 1e-2, "cg_tolerance": 1e-15}"#;
     let rest = DVec3::new(0.3, 0.0, -0.9).length();
     // Stretched (k = 1e4 N/m against m/h² = 3,600 N/m), thrown outwards and sideways. From
     // x̃ the problem is one-dimensional along x̃ and quadratic there: one pass is exact.
@@ -207,7 +209,7 @@ fn a_particle_on_one_spring_converges_to_the_exact_backward_euler_step() {
     // block is the energy's exact curvature along the edge, and the modified Hessian (no
     // geometric term) still converges.
     let throw = DVec3::new(-6.0, 0.0, 18.0);
-    let equal = r#"{"compliance": 1e-4, "compression_compliance": 1e-4}"#;
+    let equal = r#"{"compliance": 1e-4, "compression_compliance": 1e-4, "cg_tolerance": 1e-15}"#;
     let (errors, exact) = hanging_particle(throw, DVec3::ZERO, equal, 1e4, 3);
     println!("compressed from x̃: {}", sci(&errors));
     assert!(exact.length() < rest * 0.99, "the spring is compressed");
@@ -239,6 +241,15 @@ fn a_particle_on_one_spring_converges_to_the_exact_backward_euler_step() {
         *errors.last().unwrap() < errors[0] * rate.powi(29),
         "{errors:?}"
     );
+
+    // The default tolerance: once the gradient is 1e-6 of the substep's first, CG does
+    // nothing and the particle stays put — no iterations spent on rounding.
+    let default = r#"{"compliance": 1e-4, "compression_compliance": 1e-2}"#;
+    let throw = DVec3::new(6.0, 20.0, -18.0);
+    let (errors, _) = hanging_particle(throw, DVec3::new(-0.1, 0.2, 0.1), default, 1e4, 8);
+    println!("stretched, nudged, default tolerance: {}", sci(&errors));
+    assert!(errors[3] < 1e-5 * errors[0], "{errors:?}");
+    assert!(errors[4..].iter().all(|e| e == &errors[4]), "{errors:?}");
 }
 
 /// The hanging cloth: 17 × 17 particles, 1 m, 1 kg, the two corners of row 0 pinned, gravity
