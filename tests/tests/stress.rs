@@ -2048,7 +2048,7 @@ fn newton_stretch_at_the_least_compliance_and_1_s_substeps_stays_finite() {
 
 /// The least compliance at the energy check: it gains energy (unconverged substeps, as above).
 #[test]
-#[ignore = "fails: at compliance 1e-15 (2 x 2) the energy grows 80 %/s of the energy in play; unconverged substeps, as newton_stretch_at_one_pass_never_gains_energy"]
+#[ignore = "fails: at compliance 1e-15 (2 x 2) the energy grows 50 %/s (80 %/s before the multigrid turned) of the energy in play; unconverged substeps, as newton_stretch_at_one_pass_never_gains_energy"]
 fn newton_stretch_at_the_least_compliance_never_gains_energy() {
     check_newton_energy(
         "stretch_newton, compliance 1e-15, 16 x 16 cloth, 2 x 2 (energy)",
@@ -2058,7 +2058,7 @@ fn newton_stretch_at_the_least_compliance_never_gains_energy() {
 
 /// One substep of 1 s at the energy check.
 #[test]
-#[ignore = "fails: at h = 1 s with 10 passes the energy grows 15 %/s of the energy in play; unconverged substeps, as newton_stretch_at_one_pass_never_gains_energy"]
+#[ignore = "fails: at h = 1 s with 10 passes the energy grows 10 %/s (15 %/s before the multigrid turned) of the energy in play; unconverged substeps, as newton_stretch_at_one_pass_never_gains_energy"]
 fn newton_stretch_with_1_s_substeps_never_gains_energy() {
     check_newton_energy(
         "h = 1 s, 10 passes, 8 x 8 cloth (stretch_newton, energy)",

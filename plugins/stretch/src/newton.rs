@@ -61,9 +61,10 @@
 //! For cloth that must hardly stretch. Measured on the peers' drape (README, part 6 of the
 //! benchmark; 2 threads), with rotations: two substeps of four Newton steps, each of five CG
 //! iterations, move the cloth as plain `stretch` at 320 substeps does (mean height after 0.25 /
-//! 0.5 s within a few cm, `bench/motion.py`) with ten times less strain than `stretch` with
-//! `tether` at equal time at N = 64; at N = 128 it costs hundreds of ms a frame (README, part 6),
-//! well beyond the 16 ms target.
+//! 0.5 s within a few cm, `bench/motion.py`) with about ten times less strain than plain
+//! `stretch` at 320 × 4 in less time (N = 64, 3 CG a step: 54 ms a frame, max 0.056 %, RMS
+//! 0.0024 %, against 85 ms, 0.30 % / 0.022 %); at N = 128 it costs 290–430 ms a frame
+//! (README, part 6), far beyond the 16 ms target.
 //!
 //! **Cheap settings can give low strain and the wrong motion.** Without rotations, 5 CG
 //! iterations a step at 2 × 2 meet both strain bounds on the 128 × 128 drape in 42–49 ms (max
@@ -75,9 +76,17 @@
 //! 2 × 2 with CG to 1e-8: −0.36 m at 0.5 s; four or more steps a substep are right; with
 //! rotations at N = 128, 2 × 2 × 5 CG: −0.16 m). And a substep whose Newton iteration is not
 //! converged gains energy with stiff springs (the stress suite, `docs/stress.md`: one pass at
-//! compliance 1e-8, +34 %/s of the energy in play), where converged passes never do. Hence the
-//! defaults (at most 50 CG iterations, to 1e-6) and `scenes/drape_newton.toml`'s 8 × 2; fewer
-//! passes or iterations only with a check of the motion.
+//! compliance 1e-8, +34 %/s of the energy in play), where converged passes never do.
+//!
+//! The defaults (at most 50 CG iterations, to 1e-6) are the cautious end, not a converged
+//! one: on the drape a substep's first Newton step gets to about 1e-4 of its residual in 50
+//! iterations and later steps stall at 2e-2–8e-2, the gradient levelling off near 1 % of the
+//! substep's first (N = 64, 2 × 4, with or without rotations; our reading: the compressed
+//! edges of the buckling cloth, whose transverse curvature the Hessian clamps to zero). They
+//! cost about seven times `scenes/drape_newton.toml`'s 5 iterations a step (N = 64, 2 × 4:
+//! 423 against 64 ms a frame) for the same motion. The scene's setting — 2 × 4, 5 CG, rotations
+//! — is the one measured to move the cloth right; fewer passes or iterations only with a check
+//! of the motion (`bench/motion.py`).
 //!
 //! It is a penalty method: `compliance` must be positive. Its default, 1e-8 m/N, lets a
 //! 1 m, 1 kg cloth hanging from two corners stretch about 1e-5 at the pins. The default order
