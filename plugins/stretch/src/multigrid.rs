@@ -581,8 +581,9 @@ impl Hierarchy {
 
     /// Recomputes the coarse operators, the diagonal inverses and the coarsest factor from
     /// the fine matrix, which must be symmetric (block `(j, i)` the transpose of `(i, j)`: the
-    /// coarse operators' lower triangles are copied from their upper ones). Returns `false` if a diagonal block or the coarsest operator is not
-    /// positive definite (numerically), in which case the V-cycle must not be used.
+    /// coarse operators' lower triangles are copied from their upper ones). Returns `false`
+    /// if a diagonal block or the coarsest operator is not positive definite (numerically), in
+    /// which case the V-cycle must not be used.
     pub fn update(&mut self, team: TeamRef<'_>) -> bool {
         let mut ok = true;
         for l in 0..self.levels.len() {
