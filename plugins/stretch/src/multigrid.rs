@@ -860,23 +860,10 @@ impl Pcg {
 
     /// At most `max_iterations` of CG on `A x = b` from `x = 0` (A: the hierarchy's fine
     /// matrix, updated), preconditioned by one V-cycle, stopping early once the residual is
-    /// `tolerance` times the initial one.
-    pub fn solve(
-        &mut self,
-        team: TeamRef<'_>,
-        h: &mut Hierarchy,
-        b: &[DVec3],
-        x: &mut [DVec3],
-        max_iterations: u32,
-        tolerance: f64,
-    ) -> CgStats {
-        self.solve_to(team, h, b, x, max_iterations, tolerance, 0.0)
-    }
-
-    /// [`solve`](Self::solve), stopping also once the residual's norm is at most `floor`
-    /// (before any iteration if `b`'s is: then `x = 0`, no iteration and a reduction of 1).
+    /// `tolerance` times the initial one or its norm at most `floor` (before any iteration if
+    /// `b`'s is: then `x = 0`, no iteration and a reduction of 1).
     #[allow(clippy::too_many_arguments)]
-    pub fn solve_to(
+    pub fn solve(
         &mut self,
         team: TeamRef<'_>,
         h: &mut Hierarchy,

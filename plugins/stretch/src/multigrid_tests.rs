@@ -365,6 +365,20 @@ fn slot_finds_every_pattern_pair_and_nothing_else() {
     assert_eq!(a.slot(0, n as u32), None, "a column past the last");
 }
 
+/// `⟨P c, f⟩ = ⟨c, Pᵀ f⟩` for random `c` and `f`.
+fn restriction_is_the_transpose(p: &Prolongation, rng: &mut Rng) {
+    let (cv, fv) = (rng.vector(p.coarse), rng.vector(p.fine()));
+    let mut pc = vec![DVec3::ZERO; p.fine()];
+    p.add_to_fine(serial(), &cv, &mut pc);
+    let mut ptf = vec![DVec3::splat(f64::NAN); p.coarse];
+    p.restrict(&fv, &mut ptf);
+    let (lhs, rhs) = (dot(&pc, &fv), dot(&cv, &ptf));
+    assert!(
+        (lhs - rhs).abs() < 1e-13 * norm(&pc) * norm(&fv),
+        "{lhs} vs {rhs}"
+    );
+}
+
 #[test]
 fn prolongation_interpolates_and_restriction_is_its_transpose() {
     let (graph, _, _) = grid(9);
@@ -387,17 +401,7 @@ fn prolongation_interpolates_and_restriction_is_its_transpose() {
         for f in &fine {
             assert!((*f - shift).length() < 1e-15, "{f} from {shift}");
         }
-        // ⟨P c, f⟩ = ⟨c, Pᵀ f⟩.
-        let (cv, fv) = (rng.vector(p.coarse), rng.vector(p.fine()));
-        let mut pc = vec![DVec3::ZERO; p.fine()];
-        p.add_to_fine(serial(), &cv, &mut pc);
-        let mut ptf = vec![DVec3::splat(f64::NAN); p.coarse];
-        p.restrict(&fv, &mut ptf);
-        let (lhs, rhs) = (dot(&pc, &fv), dot(&cv, &ptf));
-        assert!(
-            (lhs - rhs).abs() < 1e-13 * norm(&pc) * norm(&fv),
-            "{lhs} vs {rhs}"
-        );
+        restriction_is_the_transpose(p, &mut rng);
     }
 }
 
@@ -454,17 +458,8 @@ fn rigid_prolongation_carries_rigid_motions_of_the_current_shape_exactly() {
                 "linear interpolation misses only {miss:e}"
             );
         }
-        // ⟨P c, f⟩ = ⟨c, Pᵀ f⟩ with turns too.
-        let (cv, fv) = (rng.vector(p.coarse), rng.vector(p.fine()));
-        let mut pc = vec![DVec3::ZERO; p.fine()];
-        p.add_to_fine(serial(), &cv, &mut pc);
-        let mut ptf = vec![DVec3::splat(f64::NAN); p.coarse];
-        p.restrict(&fv, &mut ptf);
-        let (lhs, rhs) = (dot(&pc, &fv), dot(&cv, &ptf));
-        assert!(
-            (lhs - rhs).abs() < 1e-13 * norm(&pc) * norm(&fv),
-            "{lhs} vs {rhs}"
-        );
+        // With turns too.
+        restriction_is_the_transpose(p, &mut rng);
         origin = coarse_origin;
     }
 }
@@ -633,7 +628,7 @@ fn pcg_solves_the_cloth_hessian_to_1e_10() {
     let b = rng.vector(n);
     let mut x = vec![DVec3::ZERO; n];
     let mut pcg = Pcg::new(n);
-    let stats = pcg.solve(serial(), &mut h, &b, &mut x, 200, 1e-11);
+    let stats = pcg.solve(serial(), &mut h, &b, &mut x, 200, 1e-11, 0.0);
     let mut ax = vec![DVec3::ZERO; n];
     h.fine().mul(serial(), &x, &mut ax);
     let r: Vec<DVec3> = b.iter().zip(&ax).map(|(p, q)| *p - *q).collect();
@@ -646,9 +641,19 @@ fn pcg_solves_the_cloth_hessian_to_1e_10() {
     assert!(stats.iterations < 200, "{stats:?}");
     assert!(true_reduction < 1e-10, "true residual {true_reduction:e}");
     // Stopping early: the tolerance is honoured and no more iterations are run than given.
-    let loose = pcg.solve(serial(), &mut h, &b, &mut x, 200, 1e-3);
+    let loose = pcg.solve(serial(), &mut h, &b, &mut x, 200, 1e-3, 0.0);
     assert!(loose.reduction <= 1e-3 && loose.iterations < stats.iterations);
-    let capped = pcg.solve(serial(), &mut h, &b, &mut x, 2, 0.0);
+    let capped = pcg.solve(serial(), &mut h, &b, &mut x, 2, 0.0, 0.0);
+    // An absolute floor: no iteration once the residual's norm is below it, x = 0 if b's is.
+    let floor = 1e-3 * norm(&b);
+    let floored = pcg.solve(serial(), &mut h, &b, &mut x, 200, 0.0, floor);
+    assert!(
+        floored.reduction <= 1e-3 && floored.iterations < stats.iterations,
+        "{floored:?}"
+    );
+    let none = pcg.solve(serial(), &mut h, &b, &mut x, 200, 0.0, 2.0 * norm(&b));
+    assert_eq!((none.iterations, none.reduction), (0, 1.0));
+    assert!(x.iter().all(|v| *v == DVec3::ZERO));
     assert_eq!(capped.iterations, 2);
     assert!(
         capped.reduction > 0.0 && capped.reduction < 1.0,
@@ -663,13 +668,21 @@ fn pcg_from_a_zero_or_non_finite_right_hand_side_does_not_iterate() {
     let n = h.fine().n();
     let mut pcg = Pcg::new(n);
     let mut x = vec![DVec3::ONE; n];
-    let stats = pcg.solve(serial(), &mut h, &vec![DVec3::ZERO; n], &mut x, 10, 1e-6);
+    let stats = pcg.solve(
+        serial(),
+        &mut h,
+        &vec![DVec3::ZERO; n],
+        &mut x,
+        10,
+        1e-6,
+        0.0,
+    );
     assert_eq!(stats.iterations, 0);
     assert_eq!(stats.reduction, 0.0);
     assert!(x.iter().all(|v| *v == DVec3::ZERO), "x is reset to zero");
     let mut b = vec![DVec3::ONE; n];
     b[3].y = f64::NAN;
-    let stats = pcg.solve(serial(), &mut h, &b, &mut x, 10, 1e-6);
+    let stats = pcg.solve(serial(), &mut h, &b, &mut x, 10, 1e-6, 0.0);
     assert_eq!(stats.iterations, 0);
     assert!(stats.reduction.is_nan());
 }
@@ -712,7 +725,7 @@ fn the_v_cycle_cuts_the_iterations_far_below_plain_cg() {
     let b = Rng(8).vector(n);
     let tolerance = 1e-6;
     let mut x = vec![DVec3::ZERO; n];
-    let mg = Pcg::new(n).solve(serial(), &mut h, &b, &mut x, 1000, tolerance);
+    let mg = Pcg::new(n).solve(serial(), &mut h, &b, &mut x, 1000, tolerance, 0.0);
     let plain = plain_cg(h.fine(), &b, tolerance, 20_000);
     println!(
         "33 x 33 cloth Hessian to 1e-6: {} V-cycle PCG iterations, {plain} plain CG iterations",
@@ -752,7 +765,7 @@ fn rotations_carry_a_swing_of_a_folded_cloth_in_few_iterations() {
         let mut b = vec![DVec3::ZERO; n];
         h.fine().mul(serial(), &swing, &mut b);
         let mut x = vec![DVec3::ZERO; n];
-        let stats = Pcg::new(n).solve(serial(), &mut h, &b, &mut x, 5, 0.0);
+        let stats = Pcg::new(n).solve(serial(), &mut h, &b, &mut x, 5, 0.0, 0.0);
         assert_eq!(stats.iterations, 5);
         let e: Vec<DVec3> = x.iter().zip(&swing).map(|(p, q)| *p - *q).collect();
         let error = norm(&e) / norm(&swing);
@@ -927,8 +940,8 @@ fn same_bits_on_two_parts(mut one: Hierarchy) {
     one.v_cycle(serial(), &b, &mut y1);
     two.v_cycle(team, &b, &mut y2);
     assert_eq!(bits(&y1), bits(&y2), "V-cycle");
-    let s1 = Pcg::new(n).solve(serial(), &mut one, &b, &mut y1, 5, 0.0);
-    let s2 = Pcg::new(n).solve(team, &mut two, &b, &mut y2, 5, 0.0);
+    let s1 = Pcg::new(n).solve(serial(), &mut one, &b, &mut y1, 5, 0.0, 0.0);
+    let s2 = Pcg::new(n).solve(team, &mut two, &b, &mut y2, 5, 0.0, 0.0);
     assert_eq!(s1, s2);
     assert_eq!(bits(&y1), bits(&y2), "PCG");
 }

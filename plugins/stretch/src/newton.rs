@@ -536,7 +536,7 @@ impl ConstraintGroup for NewtonGroup {
             self.substep_gradient = norm;
         }
         let mut step = std::mem::take(&mut self.step);
-        self.last = self.pcg.solve_to(
+        self.last = self.pcg.solve(
             team,
             &mut self.hierarchy,
             &self.gradient,
