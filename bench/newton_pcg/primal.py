@@ -4,7 +4,7 @@ geometric stiffness, each Newton step a sparse direct solve. numpy + scipy. See 
 
 usage: primal.py N SUBSTEPS NEWTON [--compliance ALPHA] [--frames 120] [--trace] [--amg CG]
                  [--rebuild R [--galerkin]] [--gmg [--coarsest NODES] [--coarse-every K]
-                 [--rot [--rot-from LEVEL] [--coarse-block 3|6]]] [--cost]
+                 [--rot [--rot-from LEVEL] [--coarse-block 3|6]] [--schwarz]] [--cost]
 
 Per substep, implicit Euler on stiff springs (compliance ALPHA m/N, default 1e-8: the strain
 the compliance itself allows is ~1e-6 at the pins):
@@ -34,7 +34,8 @@ coarsening) with Galerkin operators for every Hessian: what the `stretch_newton`
 (`--coarse-every K`: the coarse levels recomputed only every K-th Newton step). `--rot` gives
 every coarse particle a rotation about its current position as well (six unknowns), each
 dropped particle moved by its parents' rigid motions, the prolongators rebuilt from the current
-shape every Newton step: the kind's `rotations = true`.
+shape every Newton step: the kind's `rotations = true`. `--schwarz` smooths the finest level by
+overlapping Schwarz over each particle's star instead of block Gauss-Seidel.
 
 With `--cost`, after the run: what one such CG iteration costs on the Hessian of the last
 positions (the hanging cloth), on one thread (run with OMP_NUM_THREADS=1), best of 5 repeats:
@@ -83,6 +84,9 @@ p.add_argument("--coarse-block", type=int, default=6, choices=(3, 6),
 p.add_argument("--coarse-every", type=int, default=1, metavar="K",
                help="with --gmg: recompute the prolongators and coarse operators only every "
                "K-th Newton step (the finest level always the current Hessian)")
+p.add_argument("--schwarz", action="store_true",
+               help="with --gmg: smooth the finest level by symmetric overlapping Schwarz over "
+               "each unknown's row pattern (a particle's star) instead of block Gauss-Seidel")
 p.add_argument("--coarsest", type=int, default=60, metavar="NODES",
                help="with --gmg: coarsen until a level has at most NODES particles")
 p.add_argument("--cost", action="store_true",
@@ -247,8 +251,11 @@ def gmg_hierarchy(Hf, x_free):
     """The geometric hierarchy's V-cycle for `Hf`: Galerkin operators, block Gauss-Seidel."""
     if not a.rot:
         pr = [sp.kron(P, sp.eye(3), format="csr") for P, _ in gmg_prolongators]
-        return galerkin_hierarchy(Hf, [(P, P.T.tocsr()) for P in pr],
-                                  ("block_gauss_seidel", {"sweep": "symmetric", "blocksize": 3}))
+        sweep = ("block_gauss_seidel", {"sweep": "symmetric", "blocksize": 3})
+        sweeps = [sweep] * (len(pr) + 1)
+        if a.schwarz:
+            sweeps[0] = ("schwarz", {"sweep": "symmetric"})
+        return galerkin_hierarchy(Hf, [(P, P.T.tocsr()) for P in pr], sweeps)
     pr, xf, dofs, sizes = [], x_free, 3, [3]
     for level, (P, kept) in enumerate(gmg_prolongators):
         if level + 1 < a.rot_from:
@@ -261,6 +268,8 @@ def gmg_hierarchy(Hf, x_free):
         sizes.append(dofs)
     sweeps = [("block_gauss_seidel", {"sweep": "symmetric", "blocksize": min(b, a.coarse_block)})
               for b in sizes]
+    if a.schwarz:
+        sweeps[0] = ("schwarz", {"sweep": "symmetric"})
     return galerkin_hierarchy(Hf, pr, sweeps)
 
 
