@@ -247,18 +247,25 @@ def rotational_prolongator(P, xf, xc, fine_dofs):
                          shape=(fine_dofs * P.shape[0], 6 * P.shape[1])).tocsr()
 
 
+def gmg_sweeps(sizes):
+    """The geometric hierarchy's smoothers, level by level for `sizes` unknowns per particle:
+    symmetric block Gauss-Seidel (blocks of at most `--coarse-block`), or overlapping Schwarz on
+    the finest level with `--schwarz`."""
+    sweeps = [("block_gauss_seidel", {"sweep": "symmetric", "blocksize": min(b, a.coarse_block)})
+              for b in sizes]
+    if a.schwarz:
+        sweeps[0] = ("schwarz", {"sweep": "symmetric"})
+    return sweeps
+
+
 def gmg_hierarchy(Hf, x_free):
-    """The geometric hierarchy's V-cycle for `Hf`: Galerkin operators, block Gauss-Seidel."""
-    if not a.rot:
-        pr = [sp.kron(P, sp.eye(3), format="csr") for P, _ in gmg_prolongators]
-        sweep = ("block_gauss_seidel", {"sweep": "symmetric", "blocksize": 3})
-        sweeps = [sweep] * (len(pr) + 1)
-        if a.schwarz:
-            sweeps[0] = ("schwarz", {"sweep": "symmetric"})
-        return galerkin_hierarchy(Hf, [(P, P.T.tocsr()) for P in pr], sweeps)
+    """The geometric hierarchy's V-cycle for `Hf` at the free particles `x_free`: Galerkin
+    operators over the scalar prolongators (Kronecker'd with I3), or with `--rot` from level
+    `--rot-from` on the rotational ones fitted to `x_free`. Keeps the levels' unknowns per
+    particle as `block_sizes`, for `--coarse-every`'s smoothers."""
     pr, xf, dofs, sizes = [], x_free, 3, [3]
     for level, (P, kept) in enumerate(gmg_prolongators):
-        if level + 1 < a.rot_from:
+        if not a.rot or level + 1 < a.rot_from:
             R = sp.kron(P, sp.eye(3), format="csr")
         else:
             R = rotational_prolongator(P, xf, xf[kept], dofs)
@@ -266,11 +273,9 @@ def gmg_hierarchy(Hf, x_free):
         pr.append((R, R.T.tocsr()))
         xf = xf[kept]
         sizes.append(dofs)
-    sweeps = [("block_gauss_seidel", {"sweep": "symmetric", "blocksize": min(b, a.coarse_block)})
-              for b in sizes]
-    if a.schwarz:
-        sweeps[0] = ("schwarz", {"sweep": "symmetric"})
-    return galerkin_hierarchy(Hf, pr, sweeps)
+    ml = galerkin_hierarchy(Hf, pr, gmg_sweeps(sizes))
+    ml.block_sizes = sizes
+    return ml
 
 
 def galerkin_update(ml, Hf):
@@ -293,10 +298,8 @@ def amg_solve(Hf, rhs, x_free):
 
         ml = amg_cached
         ml.levels[0].A = Hf.tocsr()
-        sizes = [3] + [6 if a.rot else 3] * (len(ml.levels) - 1)
-        change_smoothers(ml, *[[("block_gauss_seidel", {"sweep": "symmetric",
-                                                          "blocksize": min(b, a.coarse_block)})
-                                 for b in sizes]] * 2)
+        sweeps = gmg_sweeps(ml.block_sizes)
+        change_smoothers(ml, sweeps, sweeps)
     elif amg_cached is None or amg_state["calls"] % a.rebuild == 0:
         amg_cached = ml = amg_hierarchy(Hf, x_free)
     elif a.galerkin:

@@ -220,18 +220,20 @@ pub struct Prolongation {
     pub origin: Vec<[u32; 2]>,
 }
 
-/// The prolongations of a [`crate::hierarchy::Coarsening`] of `fine` particles, finest first:
-/// plain ([`Prolongation::from_coarsening`]) or, if `rigid`, carrying rotations
-/// ([`Prolongation::rigid`], the lever arms indexing the fine particles' positions).
+/// The prolongations of a [`crate::hierarchy::Coarsening`] of the fine particles, finest
+/// first: plain ([`Prolongation::from_coarsening`]) or, if `rigid`, carrying rotations
+/// ([`Prolongation::rigid`]). `position[f]` is where fine particle `f`'s position is found in
+/// the slice later given to [`Hierarchy::refit`] (the identity, or the group's particle
+/// indices, so the simulation's positions serve directly).
 pub fn prolongations(
-    fine: usize,
+    position: &[u32],
     coarsening: &crate::hierarchy::Coarsening,
     rigid: bool,
 ) -> Vec<Prolongation> {
-    let mut fine_n = fine;
+    let mut fine_n = position.len();
     let mut out = Vec::new();
-    // The finest particle each level's particles stand for (their positions).
-    let mut origin: Vec<u32> = (0..fine as u32).collect();
+    // Where each level's particles' positions are (those of the fine particles they stand for).
+    let mut origin = position.to_vec();
     for (level, (kept, dropped)) in coarsening.kept.iter().zip(&coarsening.dropped).enumerate() {
         out.push(if rigid {
             Prolongation::rigid(fine_n, level > 0, kept, dropped, &origin)
@@ -440,6 +442,9 @@ struct Level {
     inv_diag: Vec<DMat3>,
     /// Interpolation from the next coarser level (none on the coarsest).
     p: Option<Prolongation>,
+    /// Whether `p` has turns (rotations): its lever arms are refitted and the next level's
+    /// diagonal regularised.
+    rigid: bool,
     /// `(fine slot, coarse slot, entry i, entry j)`: the coarse operator is
     /// `Σ Bᵢᵀ A[fine slot] Bⱼ` (the prolongation's entries) accumulated into each coarse slot
     /// of the upper triangle and the diagonal.
@@ -517,6 +522,7 @@ impl Hierarchy {
             levels.push(Level {
                 a,
                 inv_diag: vec![DMat3::ZERO; n],
+                rigid: p.rotates(),
                 p: Some(p),
                 galerkin,
                 mirror,
@@ -546,8 +552,8 @@ impl Hierarchy {
     /// Refits every rigid prolongation's lever arms to the positions `x` (see
     /// [`Prolongation::refit`]); call before [`update`](Self::update).
     pub fn refit(&mut self, x: &[DVec3]) {
-        for p in self.levels.iter_mut().filter_map(|l| l.p.as_mut()) {
-            if p.rotates() {
+        for level in self.levels.iter_mut().filter(|l| l.rigid) {
+            if let Some(p) = level.p.as_mut() {
                 p.refit(x);
             }
         }
@@ -650,7 +656,7 @@ impl Hierarchy {
                         };
                     }
                 });
-                if p.rotates() {
+                if level.rigid {
                     next.a.regularize_diagonal(ROTATION_REGULARIZATION);
                 }
             }

@@ -171,13 +171,15 @@ fn grid(n: u32) -> (Graph, Vec<(u32, u32)>, Vec<DVec3>) {
 /// The plain prolongations of `graph`'s coarsening, finest first, built as `newton.rs` builds
 /// them with `rotations = false`.
 fn prolongations(graph: &Graph, coarsest: usize) -> Vec<Prolongation> {
-    super::prolongations(graph.len(), &coarsen(graph, &[], 64, coarsest), false)
+    let identity: Vec<u32> = (0..graph.len() as u32).collect();
+    super::prolongations(&identity, &coarsen(graph, &[], 64, coarsest), false)
 }
 
 /// The rigid prolongations of `graph`'s coarsening (`rotations = true`), lever arms fitted to
 /// the particles' positions `x`.
 fn rigid_prolongations(graph: &Graph, coarsest: usize, x: &[DVec3]) -> Vec<Prolongation> {
-    let mut ps = super::prolongations(graph.len(), &coarsen(graph, &[], 64, coarsest), true);
+    let identity: Vec<u32> = (0..graph.len() as u32).collect();
+    let mut ps = super::prolongations(&identity, &coarsen(graph, &[], 64, coarsest), true);
     ps.iter_mut().for_each(|p| p.refit(x));
     ps
 }

@@ -227,8 +227,6 @@ pub struct NewtonGroup {
     target: Vec<DVec3>,
     gradient: Vec<DVec3>,
     step: Vec<DVec3>,
-    /// The unknowns' positions at the Newton step (the multigrid's lever arms).
-    positions: Vec<DVec3>,
     hierarchy: Hierarchy,
     pcg: Pcg,
     max_index: Option<u32>,
@@ -307,13 +305,12 @@ impl NewtonGroup {
         }
         let coarsest = p.coarsest.max(2) as usize;
         let c = crate::hierarchy::coarsen(&graph, &[], 64, coarsest);
-        let prolongations = crate::multigrid::prolongations(dof.len(), &c, p.rotations);
+        let prolongations = crate::multigrid::prolongations(&dof, &c, p.rotations);
         let n = dof.len();
         Ok(NewtonGroup {
             target: vec![DVec3::ZERO; n],
             gradient: vec![DVec3::ZERO; n],
             step: vec![DVec3::ZERO; n],
-            positions: vec![DVec3::ZERO; n],
             hierarchy: Hierarchy::new(fine, prolongations),
             pcg: Pcg::new(n),
             dof,
@@ -512,10 +509,7 @@ impl ConstraintGroup for NewtonGroup {
         let team = ctx.team;
         let p = ctx.particles();
         self.assemble(team, p.x, p.inv_mass, h);
-        for (y, &i) in self.positions.iter_mut().zip(&self.dof) {
-            *y = p.x[i as usize];
-        }
-        self.hierarchy.refit(&self.positions);
+        self.hierarchy.refit(p.x);
         if !self.hierarchy.update(team) {
             return Err(PluginError::new(
                 PluginError::FAILED,
