@@ -9,7 +9,16 @@ particle weighs the same) after frames 15, 30, 60 and the last; with a reference
 same scene and resolution, the largest difference of that mean height over the frames and the
 RMS distance between the two runs' particles, averaged over all frames and over the first 30
 (before the swinging cloth's folds, which diverge between any two solvers, dominate it).
+
+With the run's stats.csv (`nucleus run --out` writes it) it prints the energy too: kinetic plus
+potential (gravity and the springs' stored energy, the `kinetic_j` and `potential_j` columns,
+from the solver's own velocities) at the end, and its largest rise above the lowest value
+reached before (J). The drape has no damping and no energy source: a solver may lose energy
+(implicit Euler and PBD do), but a rise is energy it made. The plain `stretch` reference rises by
+0.01–0.08 J, from rounding and the start; an unconverged Newton setting can rise by joules and
+throw the cloth up late in a run that looked right for 30 frames.
 """
+import csv
 import os
 import sys
 
@@ -22,6 +31,15 @@ def load(d):
     """The vertices (n x 3) of every frame_*.obj in `d`, in frame order."""
     names = sorted(f for f in os.listdir(d) if f.startswith("frame_") and f.endswith(".obj"))
     return [np.array(read_obj_vertices(os.path.join(d, f))).reshape(-1, 3) for f in names]
+
+
+def energy(d):
+    """Kinetic plus potential energy (J) after each frame, from `d`/stats.csv (None if absent)."""
+    path = os.path.join(d, "stats.csv")
+    if not os.path.exists(path):
+        return None
+    with open(path) as f:
+        return np.array([float(r["kinetic_j"]) + float(r["potential_j"]) for r in csv.DictReader(f)])
 
 
 def main():
@@ -38,6 +56,11 @@ def main():
         dist = [np.sqrt(((a[k] - b[k]) ** 2).sum(1).mean()) for k in range(n)]
         msg += (f"; vs reference: mean height off by {np.abs(height[:n] - href).max():.3f} m at "
                 f"most, RMS distance {np.mean(dist):.3f} m (first 30 frames {np.mean(dist[:30]):.3f})")
+    e = energy(sys.argv[1])
+    if e is not None and len(e):
+        rise = e - np.minimum.accumulate(e)
+        msg += (f"; energy at the end {e[-1]:+.3f} J, largest rise {rise.max():.3f} J "
+                f"(frame {int(np.argmax(rise)) + 1})")
     print(msg)
 
 

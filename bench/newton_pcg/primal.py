@@ -4,7 +4,8 @@ geometric stiffness, each Newton step a sparse direct solve. numpy + scipy. See 
 
 usage: primal.py N SUBSTEPS NEWTON [--compliance ALPHA] [--frames 120] [--trace] [--amg CG]
                  [--rebuild R [--galerkin]] [--gmg [--coarsest NODES] [--coarse-every K]
-                 [--rot [--rot-from LEVEL] [--coarse-block 3|6]] [--schwarz]] [--cost]
+                 [--rot [--rot-from LEVEL] [--coarse-block 3|6]] [--schwarz]] [--pbd-start K]
+                 [--cost]
 
 Per substep, implicit Euler on stiff springs (compliance ALPHA m/N, default 1e-8: the strain
 the compliance itself allows is ~1e-6 at the pins):
@@ -36,6 +37,10 @@ every coarse particle a rotation about its current position as well (six unknown
 dropped particle moved by its parents' rigid motions, the prolongators rebuilt from the current
 shape every Newton step: the kind's `rotations = true`. `--schwarz` smooths the finest level by
 overlapping Schwarz over each particle's star instead of block Gauss-Seidel.
+
+With `--pbd-start K`, each substep's Newton steps start not from the prediction but from it
+after K hard Gauss-Seidel passes over the edges (plain PBD, colour by colour): the
+`stretch_newton` kind's `start_passes`.
 
 With `--cost`, after the run: what one such CG iteration costs on the Hessian of the last
 positions (the hanging cloth), on one thread (run with OMP_NUM_THREADS=1), best of 5 repeats:
@@ -89,6 +94,9 @@ p.add_argument("--schwarz", action="store_true",
                "each unknown's row pattern (a particle's star) instead of block Gauss-Seidel")
 p.add_argument("--coarsest", type=int, default=60, metavar="NODES",
                help="with --gmg: coarsen until a level has at most NODES particles")
+p.add_argument("--pbd-start", type=int, default=0, metavar="K",
+               help="before each substep's Newton steps, K Gauss-Seidel passes of hard edge "
+               "projections (plain PBD, edge colour by colour) from the prediction")
 p.add_argument("--cost", action="store_true",
                help="time a Hessian product, a V-cycle and the AMG setup after the run")
 a = p.parse_args()
@@ -390,6 +398,38 @@ def gradient_and_hessian(x, xt):
     return grad.ravel(), H
 
 
+def edge_colour_sets():
+    """Greedy colouring of the edges in order: the edges of one colour share no particle."""
+    used = [set() for _ in range(nv)]
+    colour = np.zeros(len(E), int)
+    for e, (i, j) in enumerate(E):
+        c = 0
+        while c in used[i] or c in used[j]:
+            c += 1
+        colour[e] = c
+        used[i].add(c)
+        used[j].add(c)
+    return [np.flatnonzero(colour == c) for c in range(colour.max() + 1)]
+
+
+W = np.where(pinned, 0.0, 1.0 / mass)
+
+
+def pbd_passes(x, passes):
+    """`passes` hard PBD passes over the edges, colour by colour (a colour's edges at once)."""
+    for _ in range(passes):
+        for c in colour_sets:
+            i, j = ea[c], eb[c]
+            d = x[i] - x[j]
+            l = np.linalg.norm(d, axis=1)
+            wi, wj = W[i], W[j]
+            s = (l - L[c]) / np.maximum(wi + wj, 1e-300) / np.maximum(l, 1e-300)
+            x[i] -= (wi * s)[:, None] * d
+            x[j] += (wj * s)[:, None] * d
+    return x
+
+
+colour_sets = edge_colour_sets() if a.pbd_start else []
 x = X.copy()
 v = np.zeros_like(x)
 log = StrainLog(ea, eb, L, struct)
@@ -409,7 +449,7 @@ for fr in range(a.frames):
         xo = x.copy()
         v[free] += dt * g
         xt = x + dt * v * free[:, None]
-        x = xt.copy()
+        x = pbd_passes(xt.copy(), a.pbd_start)
         for it in range(a.newton):
             grad, H = gradient_and_hessian(x, xt)
             Hf = H[free_dofs][:, free_dofs]

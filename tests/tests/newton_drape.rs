@@ -2,10 +2,10 @@
 //! `scenes/drape_newton.toml` (1 m, 1 kg, pinned at the two corners of row 0, 2 substeps × 4
 //! passes, 5 CG iterations a pass, the multigrid's coarse particles turning): at N = 32 the
 //! structural edges stay within the target's bounds (max strain 1 %, RMS 0.1 %), the cloth
-//! falls as converged solvers make it fall (and without the rotations it does not), and one
-//! and two threads give the same bits — at
-//! N = 32, where every loop of the kind runs on one thread, and at N = 96, where the fine
-//! level's assembly, products and Gauss-Seidel colours are split over the team.
+//! falls as converged solvers make it fall (without the rotations it does not; with two Newton
+//! steps a substep it does only after `start_passes`), and one and two threads give the same
+//! bits — at N = 32, where every loop of the kind runs on one thread, and at N = 96, where the
+//! fine level's assembly, products and Gauss-Seidel colours are split over the team.
 
 use glam::DVec3;
 use nucleus_core::Simulation;
@@ -13,30 +13,30 @@ use nucleus_tests::*;
 
 /// `scenes/drape_newton.toml` at `n × n` vertices.
 fn drape_newton(n: u32) -> Simulation {
-    drape_newton_with(n, true)
+    drape_newton_with(n, "", 4)
 }
 
-/// `scenes/drape_newton.toml` at `n × n` vertices, the multigrid's rotations on or off.
-fn drape_newton_with(n: u32, rotations: bool) -> Simulation {
-    let mut text = std::fs::read_to_string(concat!(
+/// `scenes/drape_newton.toml` at `n × n` vertices, with `params` (say `rotations = false, `)
+/// added to the kind's and `iterations` Newton steps a substep instead of 4.
+fn drape_newton_with(n: u32, params: &str, iterations: u32) -> Simulation {
+    let text = std::fs::read_to_string(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/../scenes/drape_newton.toml"
     ))
     .expect("scenes/drape_newton.toml");
-    let params = "cg_iterations = 5 }";
-    assert!(text.contains(params), "the scene's params line moved");
-    if !rotations {
-        text = text.replace(params, "cg_iterations = 5, rotations = false }");
+    let mut edited = text.clone();
+    for (line, with) in [
+        ("params = { ", format!("params = {{ {params}")),
+        ("iterations = 4\n", format!("iterations = {iterations}\n")),
+        ("resolution = [64, 64]", format!("resolution = [{n}, {n}]")),
+    ] {
+        assert!(
+            text.matches(line).count() == 1,
+            "the scene's `{line}` moved"
+        );
+        edited = edited.replace(line, &with);
     }
-    let resolution = "resolution = [64, 64]";
-    assert!(
-        text.contains(resolution),
-        "the scene's resolution line moved"
-    );
-    simulation(
-        &text.replace(resolution, &format!("resolution = [{n}, {n}]")),
-        &[],
-    )
+    simulation(&edited, &[])
 }
 
 /// The structural edges of the cloth (rest length one grid spacing, `1/(n − 1)`; not the
@@ -90,9 +90,9 @@ struct Run {
     strains: Vec<(f64, f64)>,
 }
 
-/// Runs `frames` frames on `threads` threads.
-fn run(n: u32, frames: u32, threads: usize) -> Run {
-    let mut sim = drape_newton(n);
+/// Runs `frames` frames on `threads` threads, with `params` added to the kind's.
+fn run(n: u32, params: &str, frames: u32, threads: usize) -> Run {
+    let mut sim = drape_newton_with(n, params, 4);
     sim.threads = threads;
     let edges = structural_edges(&sim, n);
     let mut strains = Vec::new();
@@ -112,8 +112,8 @@ fn run(n: u32, frames: u32, threads: usize) -> Run {
 fn the_drape_at_32_meets_the_strain_bounds_with_the_same_bits_on_one_and_two_threads() {
     let Run {
         sim: one, strains, ..
-    } = run(32, 60, 1);
-    let two = run(32, 60, 2).sim;
+    } = run(32, "", 60, 1);
+    let two = run(32, "", 60, 2).sim;
     let last = &strains[30..];
     let worst = last.iter().map(|s| s.0).fold(0.0, f64::max);
     let worst_rms = last.iter().map(|s| s.1).fold(0.0, f64::max);
@@ -168,7 +168,8 @@ fn the_drape_falls_as_converged_solvers_make_it_fall() {
 fn without_rotations_five_cg_iterations_hold_the_drape_up() {
     // The same setting with the multigrid's coarse particles only translating: measured
     // −0.192 / −0.417 m — the truncated solves leave the fall out.
-    let (quarter, half) = heights_at_quarter_and_half_second(drape_newton_with(32, false));
+    let (quarter, half) =
+        heights_at_quarter_and_half_second(drape_newton_with(32, "rotations = false, ", 4));
     println!("drape_newton N = 32 without rotations: mean height {quarter:.3} m at 0.25 s, {half:.3} m at 0.5 s");
     assert!(
         half > -0.489 + 0.05,
@@ -177,12 +178,33 @@ fn without_rotations_five_cg_iterations_hold_the_drape_up() {
 }
 
 #[test]
+fn start_passes_let_two_newton_steps_a_substep_move_the_drape() {
+    // Two Newton steps a substep from the prediction do not converge the drape's substep: it
+    // is held up (measured at N = 32, 2 × 2, 5 CG: −0.168 / −0.472 m after 0.25 / 0.5 s).
+    // Five hard Gauss-Seidel passes first take the edges' local strain off, and the same two
+    // steps move it as converged solvers do (−0.221 / −0.498 m): half the scene's Newton
+    // steps. `bench/newton_pcg/primal.py --pbd-start K` shows the same with direct solves.
+    let (quarter, half) = heights_at_quarter_and_half_second(drape_newton_with(32, "", 2));
+    let (quarter_k, half_k) =
+        heights_at_quarter_and_half_second(drape_newton_with(32, "start_passes = 5, ", 2));
+    println!(
+        "drape_newton N = 32, 2 x 2: mean height {quarter:.3} / {half:.3} m at 0.25 / 0.5 s; \
+         with 5 start passes {quarter_k:.3} / {half_k:.3} m"
+    );
+    assert!(quarter > -0.239 + 0.05, "{quarter} m at 0.25 s: it fell");
+    assert!((quarter_k + 0.239).abs() < 0.03, "{quarter_k} m at 0.25 s");
+    assert!((half_k + 0.489).abs() < 0.03, "{half_k} m at 0.5 s");
+}
+
+#[test]
 fn a_drape_large_enough_to_be_split_over_the_team_gives_the_same_bits_on_one_and_two_threads() {
     // 96 × 96: 9,214 unknowns, above the multigrid's PARALLEL_MIN_ROWS (2,048), so the
     // assembly, the two finest levels' products and Galerkin updates, and the fine level's
-    // Gauss-Seidel colours are split over two parts.
-    let (one, two) = (run(96, 2, 1).sim, run(96, 2, 2).sim);
-    assert!(bits(&one) == bits(&two), "1 and 2 threads differ");
-    let start = drape_newton(96);
-    assert!(bits(&one) != bits(&start), "the cloth must have moved");
+    // Gauss-Seidel colours are split over two parts; with start passes, their edge colours too.
+    for params in ["", "start_passes = 2, "] {
+        let (one, two) = (run(96, params, 2, 1).sim, run(96, params, 2, 2).sim);
+        assert!(bits(&one) == bits(&two), "{params}: 1 and 2 threads differ");
+        let start = drape_newton(96);
+        assert!(bits(&one) != bits(&start), "the cloth must have moved");
+    }
 }

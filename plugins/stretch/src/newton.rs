@@ -73,9 +73,10 @@
 //! cloth: 0.8 % error after 5 iterations, 4.8 % without; `multigrid_tests.rs`). And with or
 //! without rotations two Newton steps a substep do not converge it from the prediction (N = 64,
 //! 2 × 2 with CG to 1e-8: −0.36 m at 0.5 s; four or more steps a substep are right; with
-//! rotations at N = 128, 2 × 2 × 5 CG: −0.16 m). And a substep whose Newton iteration is not
-//! converged gains energy with stiff springs (the stress suite, `docs/stress.md`: one pass at
-//! compliance 1e-8, +34 %/s of the energy in play), where converged passes never do.
+//! rotations at N = 128, 2 × 2 × 5 CG: −0.16 m) unless `start_passes` start them (below).
+//! And a substep whose Newton iteration is not converged gains energy with stiff springs (the
+//! stress suite, `docs/stress.md`: one pass at compliance 1e-8, +34 %/s of the energy in
+//! play), where converged passes never do.
 //!
 //! The defaults (at most 50 CG iterations, to 1e-6) are the cautious end, not a converged
 //! one: on the drape a substep's first Newton step gets to about 1e-4 of its residual in 50
@@ -90,6 +91,25 @@
 //! 423 against 64 ms a frame) for the same motion. The scene's setting — 2 × 4, 5 CG, rotations
 //! — is the one measured to move the cloth right; fewer passes or iterations only with a check
 //! of the motion (`bench/motion.py`).
+//!
+//! ## Start passes
+//!
+//! With `start_passes = K > 0` each substep first runs `K` hard Gauss-Seidel passes over the
+//! same edges — the `stretch` kind's pass at compliance 0, its colours split over the team —
+//! from the prediction, before its first Newton step (`x̃` stays the prediction). The
+//! prediction stretches every edge by about `g h²`; the passes take that local strain off for
+//! a fraction of a Newton step's cost, and the steps started from there are left the global
+//! motion. Two Newton steps a substep then move the drape right for its first 30 frames where,
+//! from the prediction, they hold it up (`bench/newton_pcg/primal.py --pbd-start K` shows the
+//! same with direct solves; `tests/newton_drape.rs`). Measured (README, part 6; 2 threads, one
+//! batch): at N = 128, 2 substeps of 3 Newton steps of 5 CG after 20 passes move the cloth
+//! right and make no energy in 272–290 ms a frame (max 0.074 %, RMS 0.0017 %), where the
+//! cheapest such setting without them, 1 × 8 × 5, takes 373–434 ms. They do not make an
+//! unconverged substep safe: with two Newton steps a substep the drape makes energy late in the
+//! run (N = 64, 2 × 2 × 5 after 10 passes: 1.9 J at frame 93), and a 12 × 12 cloth at 2 passes
+//! gains 11.3 %/s of its energy with 10 start passes against 1.66 %/s without (the stress
+//! suite, `docs/stress.md`). Check a whole run's motion and energy (`bench/motion.py`) before
+//! using a cheaper setting. Off by default.
 //!
 //! It is a penalty method: `compliance` must be positive. Its default, 1e-8 m/N, lets a
 //! 1 m, 1 kg cloth hanging from two corners stretch about 1e-5 at the pins. The default order
@@ -111,7 +131,7 @@ use nucleus_sdk::prelude::*;
 use serde::Deserialize;
 
 use crate::distance::{EdgeMaterial, MIN_LENGTH};
-use crate::group::{edge_residual, Edges};
+use crate::group::{edge_residual, Edges, StretchGroup, StretchParams};
 use crate::multigrid::{for_parts, BlockMatrix, CgStats, Hierarchy, Pcg, PARALLEL_MIN_ROWS};
 use glam::DMat3;
 use nucleus_sdk::team::{span, SharedArray, TeamRef};
@@ -138,6 +158,9 @@ pub struct NewtonParams {
     pub coarsest: i64,
     /// Whether coarse particles carry rotations as well as translations.
     pub rotations: bool,
+    /// Hard Gauss-Seidel edge passes from the prediction at the start of each substep, before
+    /// its first Newton step (0: none).
+    pub start_passes: i64,
 }
 
 impl NewtonParams {
@@ -166,6 +189,9 @@ impl NewtonParams {
                 .range(2.0, 256.0),
             ParamSpec::boolean("rotations", true)
                 .doc("each coarse particle of the multigrid carries a rotation about its current position as well as a translation, so that the coarse levels move the folded cloth's pieces rigidly (false: translations only, linear interpolation over the rest mesh, which leaves a cloth held up unless CG converges)"),
+            ParamSpec::integer("start_passes", 0)
+                .doc("hard Gauss-Seidel passes over the edges (as the stretch kind's) from the prediction at the start of each substep: a start for the Newton steps that has the edges' local strain taken off, so that fewer steps converge")
+                .range(0.0, 10000.0),
         ]
     }
 }
@@ -236,6 +262,8 @@ pub struct NewtonGroup {
     substep_gradient: f64,
     halvings: u32,
     last_frame: u64,
+    /// The same edges as a hard `stretch` group, for the `start_passes` (`None` without).
+    start: Option<(StretchGroup, u32)>,
 }
 
 impl NewtonGroup {
@@ -259,9 +287,14 @@ impl NewtonGroup {
             }
         }
         // Checked as `stretch` checks them; an edge between two pins is dropped.
+        let all = Edges::scaled(p.rest_length_scale, scene)?;
+        let start = (p.start_passes > 0).then(|| {
+            let hard = StretchGroup::from_edges(&StretchParams::default(), all.clone());
+            (hard, p.start_passes as u32)
+        });
         let Edges {
             ids: edges, rest, ..
-        } = Edges::scaled(p.rest_length_scale, scene)?;
+        } = all;
         let ends: Vec<[u32; 2]> = edges
             .iter()
             .map(|&[i, j]| [unknown[i as usize], unknown[j as usize]])
@@ -336,6 +369,7 @@ impl NewtonGroup {
             substep_gradient: f64::NAN,
             halvings: 0,
             last_frame: u64::MAX,
+            start,
         })
     }
 
@@ -495,6 +529,11 @@ impl ConstraintGroup for NewtonGroup {
             *t = x[i as usize];
         }
         self.substep_gradient = f64::NAN;
+        if let Some((group, passes)) = self.start.as_mut() {
+            for _ in 0..*passes {
+                group.project(ctx)?;
+            }
+        }
         Ok(())
     }
 

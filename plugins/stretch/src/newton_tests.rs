@@ -129,12 +129,12 @@ fn a_spring_without_direction_is_none() {
 
 /// One free unit mass on a spring of rest length `|start|` to a pin at the origin, given
 /// velocity `velocity`, gravity along −z, one substep of 1/60 s; after `begin_substep` the
-/// particle is displaced by `nudge` (as another group between the passes would move it), then
-/// `passes` passes. Returns the distance from the exact backward-Euler position before and
+/// particle is put at the prediction displaced by `nudge` (as another group between the passes
+/// would move it; `None`: left where `begin_substep` put it), then `passes` passes. Returns the distance from the exact backward-Euler position before and
 /// after each pass, and that position.
 fn hanging_particle(
     velocity: DVec3,
-    nudge: DVec3,
+    nudge: Option<DVec3>,
     params: &str,
     k: f64,
     passes: u32,
@@ -159,7 +159,9 @@ fn hanging_particle(
     let l = (m * target.length() / (h * h) + k * rest) / (m / (h * h) + k);
     let exact = target / target.length() * l;
     state.begin(&mut group);
-    state.x[1] = (target + nudge).to_array();
+    if let Some(nudge) = nudge {
+        state.x[1] = (target + nudge).to_array();
+    }
     let mut errors = vec![(p(state.x[1]) - exact).length()];
     for _ in 0..passes {
         state.project(&mut group);
@@ -185,13 +187,14 @@ fn a_particle_on_one_spring_converges_to_the_exact_backward_euler_step() {
     // Stretched (k = 1e4 N/m against m/h² = 3,600 N/m), thrown outwards and sideways. From
     // x̃ the problem is one-dimensional along x̃ and quadratic there: one pass is exact.
     let throw = DVec3::new(6.0, 20.0, -18.0);
-    let (errors, exact) = hanging_particle(throw, DVec3::ZERO, params, 1e4, 3);
+    let (errors, exact) = hanging_particle(throw, Some(DVec3::ZERO), params, 1e4, 3);
     println!("stretched from x̃: {}", sci(&errors));
     assert!(exact.length() > rest * 1.05, "the spring is stretched");
     assert!(errors[0] > 0.05 && errors[1] < 1e-14, "{errors:?}");
     // Nudged 0.2 m sideways after begin_substep: a genuinely nonlinear problem, which the
     // Newton passes (full Hessian in tension) solve quadratically.
-    let (errors, exact) = hanging_particle(throw, DVec3::new(-0.1, 0.2, 0.1), params, 1e4, 12);
+    let (errors, exact) =
+        hanging_particle(throw, Some(DVec3::new(-0.1, 0.2, 0.1)), params, 1e4, 12);
     println!(
         "stretched, nudged: exact length {:.6} (rest {rest:.6}); error per pass {}",
         exact.length(),
@@ -210,18 +213,18 @@ fn a_particle_on_one_spring_converges_to_the_exact_backward_euler_step() {
     // geometric term) still converges.
     let throw = DVec3::new(-6.0, 0.0, 18.0);
     let equal = r#"{"compliance": 1e-4, "compression_compliance": 1e-4, "cg_tolerance": 1e-15}"#;
-    let (errors, exact) = hanging_particle(throw, DVec3::ZERO, equal, 1e4, 3);
+    let (errors, exact) = hanging_particle(throw, Some(DVec3::ZERO), equal, 1e4, 3);
     println!("compressed from x̃: {}", sci(&errors));
     assert!(exact.length() < rest * 0.99, "the spring is compressed");
     assert!(errors[0] > 1e-3 && errors[1] < 1e-14, "{errors:?}");
-    let (errors, _) = hanging_particle(throw, DVec3::new(0.1, -0.2, 0.05), equal, 1e4, 30);
+    let (errors, _) = hanging_particle(throw, Some(DVec3::new(0.1, -0.2, 0.05)), equal, 1e4, 30);
     println!("compressed, nudged: error per pass {}", sci(&errors));
     assert!(*errors.last().unwrap() < 1e-11, "{errors:?}");
 
     // Compressed with a 100× softer compression spring: the block along the edge is the
     // stretch stiffness, so from x̃ (one-dimensional, quadratic) each pass takes the fraction
     // (m/h² + kc)/(m/h² + ks) of the remaining error off, and no more.
-    let (errors, exact) = hanging_particle(throw, DVec3::ZERO, params, 100.0, 30);
+    let (errors, exact) = hanging_particle(throw, Some(DVec3::ZERO), params, 100.0, 30);
     let (mh2, ks, kc) = (3600.0, 1e4, 100.0);
     let rate = 1.0 - (mh2 + kc) / (mh2 + ks);
     println!(
@@ -246,10 +249,33 @@ fn a_particle_on_one_spring_converges_to_the_exact_backward_euler_step() {
     // nothing and the particle stays put — no iterations spent on rounding.
     let default = r#"{"compliance": 1e-4, "compression_compliance": 1e-2}"#;
     let throw = DVec3::new(6.0, 20.0, -18.0);
-    let (errors, _) = hanging_particle(throw, DVec3::new(-0.1, 0.2, 0.1), default, 1e4, 8);
+    let (errors, _) = hanging_particle(throw, Some(DVec3::new(-0.1, 0.2, 0.1)), default, 1e4, 8);
     println!("stretched, nudged, default tolerance: {}", sci(&errors));
     assert!(errors[3] < 1e-5 * errors[0], "{errors:?}");
     assert!(errors[4..].iter().all(|e| e == &errors[4]), "{errors:?}");
+}
+
+#[test]
+fn start_passes_move_the_start_but_not_the_problem() {
+    // Hard passes at the substep's start put the particle at the spring's rest length; the
+    // Newton passes from there still converge to the backward-Euler step from the prediction
+    // x̃, a stretched spring — x̃ is recorded before the start passes move the particle.
+    let params = r#"{"compliance": 1e-4, "compression_compliance": 1e-2, "cg_tolerance": 1e-15, "start_passes": 3}"#;
+    let rest = DVec3::new(0.3, 0.0, -0.9).length();
+    let throw = DVec3::new(6.0, 20.0, -18.0);
+    let (errors, exact) = hanging_particle(throw, None, params, 1e4, 8);
+    let (from_prediction, _) = hanging_particle(throw, Some(DVec3::ZERO), params, 1e4, 0);
+    println!(
+        "exact length {:.4} (rest {rest:.4}); from the prediction {from_prediction:?}, after 3 start passes and then per Newton pass {}",
+        exact.length(),
+        sci(&errors)
+    );
+    assert!(exact.length() > rest * 1.05, "the spring is stretched");
+    // Moved from the prediction (|x̃| − |exact| away, on the same line) to the rest length:
+    // at least |exact| − rest from the exact step.
+    assert!(errors[0] >= exact.length() - rest - 1e-12, "{errors:?}");
+    assert!((errors[0] - from_prediction[0]).abs() > 0.01, "{errors:?}");
+    assert!(*errors.last().unwrap() < 1e-11, "{errors:?}");
 }
 
 /// The hanging cloth: 17 × 17 particles, 1 m, 1 kg, the two corners of row 0 pinned, gravity
@@ -525,7 +551,8 @@ fn the_kind_describes_itself() {
             "cg_iterations",
             "cg_tolerance",
             "coarsest",
-            "rotations"
+            "rotations",
+            "start_passes"
         ]
     );
     for p in &infos {
