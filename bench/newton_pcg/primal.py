@@ -4,7 +4,8 @@ geometric stiffness, each Newton step a sparse direct solve. numpy + scipy. See 
 
 usage: primal.py N SUBSTEPS NEWTON [--compliance ALPHA] [--frames 120] [--trace] [--amg CG]
                  [--rebuild R [--galerkin]] [--gmg [--coarsest NODES] [--coarse-every K]
-                 [--rot [--rot-from LEVEL] [--coarse-block 3|6]] [--schwarz]] [--pbd-start K]
+                 [--rot [--rot-from LEVEL] [--coarse-block 3|6]] [--schwarz] [--smooth-p]]
+                 [--pbd-start K]
                  [--cost]
 
 Per substep, implicit Euler on stiff springs (compliance ALPHA m/N, default 1e-8: the strain
@@ -36,7 +37,9 @@ coarsening) with Galerkin operators for every Hessian: what the `stretch_newton`
 every coarse particle a rotation about its current position as well (six unknowns), each
 dropped particle moved by its parents' rigid motions, the prolongators rebuilt from the current
 shape every Newton step: the kind's `rotations = true`. `--schwarz` smooths the finest level by
-overlapping Schwarz over each particle's star instead of block Gauss-Seidel.
+overlapping Schwarz over each particle's star instead of block Gauss-Seidel; `--smooth-p` smooths
+every prolongator by one damped block-Jacobi step on its level's operator (smoothed aggregation's
+coarse space, on the geometric hierarchy).
 
 With `--pbd-start K`, each substep's Newton steps start not from the prediction but from it
 after K hard Gauss-Seidel passes over the edges (plain PBD, colour by colour): the
@@ -92,6 +95,11 @@ p.add_argument("--coarse-every", type=int, default=1, metavar="K",
 p.add_argument("--schwarz", action="store_true",
                help="with --gmg: smooth the finest level by symmetric overlapping Schwarz over "
                "each unknown's row pattern (a particle's star) instead of block Gauss-Seidel")
+p.add_argument("--smooth-p", action="store_true",
+               help="with --gmg: smooth every prolongator by one damped block-Jacobi step on its "
+               "level's operator, P <- (I - omega D^-1 A) P with omega = 4 / (3 rho(D^-1 A)): "
+               "coarse motions that relax the stiff fine edges (a smoothed-aggregation-like "
+               "coarse space on the geometric hierarchy)")
 p.add_argument("--coarsest", type=int, default=60, metavar="NODES",
                help="with --gmg: coarsen until a level has at most NODES particles")
 p.add_argument("--pbd-start", type=int, default=0, metavar="K",
@@ -266,18 +274,41 @@ def gmg_sweeps(sizes):
     return sweeps
 
 
+def smoothed(A, P, b):
+    """`P` after one damped block-Jacobi step on `A` (blocks of `b` unknowns):
+    (I - omega D^-1 A) P, omega = 4 / (3 rho(D^-1 A)) (rho by power iteration)."""
+    from pyamg.util.linalg import approximate_spectral_radius
+
+    A = A.tocsr()
+    n = A.shape[0] // b
+    Ab = A.tobsr(blocksize=(b, b))
+    D = np.zeros((n, b, b))
+    for i in range(n):
+        for k in range(Ab.indptr[i], Ab.indptr[i + 1]):
+            if Ab.indices[k] == i:
+                D[i] = Ab.data[k]
+    Dinv = sp.block_diag([np.linalg.inv(d) for d in D], format="csr")
+    DA = (Dinv @ A).tocsr()
+    omega = 4.0 / (3.0 * approximate_spectral_radius(DA))
+    return (P - omega * (DA @ P)).tocsr()
+
+
 def gmg_hierarchy(Hf, x_free):
     """The geometric hierarchy's V-cycle for `Hf` at the free particles `x_free`: Galerkin
     operators over the scalar prolongators (Kronecker'd with I3), or with `--rot` from level
     `--rot-from` on the rotational ones fitted to `x_free`. Keeps the levels' unknowns per
     particle as `block_sizes`, for `--coarse-every`'s smoothers."""
-    pr, xf, dofs, sizes = [], x_free, 3, [3]
+    pr, xf, dofs, sizes, A = [], x_free, 3, [3], Hf.tocsr()
     for level, (P, kept) in enumerate(gmg_prolongators):
+        fine_dofs = dofs
         if not a.rot or level + 1 < a.rot_from:
             R = sp.kron(P, sp.eye(3), format="csr")
         else:
             R = rotational_prolongator(P, xf, xf[kept], dofs)
             dofs = 6
+        if a.smooth_p:
+            R = smoothed(A, R, fine_dofs)
+            A = (R.T @ A @ R).tocsr()
         pr.append((R, R.T.tocsr()))
         xf = xf[kept]
         sizes.append(dofs)

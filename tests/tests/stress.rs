@@ -1968,16 +1968,26 @@ fn newton_stretch_at_one_pass_never_gains_energy() {
     );
 }
 
-/// Two Newton steps a substep with the default solves do not converge the substep either,
-/// and hard Gauss-Seidel passes at its start (`start_passes`), which make two steps move the
-/// drape right (`tests/newton_drape.rs`), make the energy gained larger, not smaller.
-/// Measured 2026-11-23 (12 x 12 cloth, 2 substeps, 60 frames, compliance 1e-8): +11.3 %/s of
-/// the energy in play with 10 start passes, +1.66 %/s without.
+/// Two Newton steps a substep with the default solves do not converge the substep either.
+/// Measured 2026-11-23 (12 x 12 cloth, 2 substeps, 60 frames, compliance 1e-8): +1.66 %/s of
+/// the energy in play.
 #[test]
-#[ignore = "fails: stretch_newton at 2 passes, compliance 1e-8, gains 11.3 %/s of the energy in play with 10 start passes and 1.66 %/s without (unconverged substeps)"]
-fn newton_stretch_at_two_passes_with_or_without_start_passes_never_gains_energy() {
-    let two = newton_cloth(12, 60.0, 2, 2, 60, 1e-8, "");
-    let started = two.replace(
+#[ignore = "fails: stretch_newton at 2 passes, compliance 1e-8, gains 1.66 %/s of the energy in play (unconverged substeps)"]
+fn newton_stretch_at_two_passes_never_gains_energy() {
+    check_newton_energy(
+        "stretch_newton, 2 passes, 12 x 12 cloth, compliance 1e-8",
+        newton_cloth(12, 60.0, 2, 2, 60, 1e-8, ""),
+    );
+}
+
+/// Hard Gauss-Seidel passes at the start of each substep (`start_passes`), which make two
+/// Newton steps a substep move the drape right (`tests/newton_drape.rs`), make the energy
+/// gained larger, not smaller: the same cloth as above gains +11.3 %/s with 10 start passes
+/// (measured 2026-11-23).
+#[test]
+#[ignore = "fails: stretch_newton at 2 passes after 10 start passes, compliance 1e-8, gains 11.3 %/s of the energy in play (1.66 %/s without them)"]
+fn newton_stretch_at_two_passes_after_start_passes_never_gains_energy() {
+    let started = newton_cloth(12, 60.0, 2, 2, 60, 1e-8, "").replace(
         "compression_compliance = 1e-8 }",
         "compression_compliance = 1e-8, start_passes = 10 }",
     );
@@ -1985,10 +1995,6 @@ fn newton_stretch_at_two_passes_with_or_without_start_passes_never_gains_energy(
     check_newton_energy(
         "stretch_newton, 2 passes after 10 start passes, 12 x 12 cloth, compliance 1e-8",
         started,
-    );
-    check_newton_energy(
-        "stretch_newton, 2 passes, 12 x 12 cloth, compliance 1e-8",
-        two,
     );
 }
 
