@@ -7,6 +7,7 @@ use std::time::Duration;
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
 use nucleus_sdk::abi_stable::std_types::RSlice;
 use nucleus_sdk::prelude::*;
+use nucleus_sdk::testing::CoreState;
 
 /// Particles per axis of the cloud.
 const N: u32 = 47;
@@ -37,16 +38,10 @@ fn project_pass(c: &mut Criterion) {
         .create_group(kind, r#"{"radius": 0.3, "period": 0.5}"#, &scene)
         .unwrap_or_else(|e| panic!("cannot build the group: {e}"));
 
-    let mut x = rest.clone();
-    let x0 = rest.clone();
-    let mut v = vec![[0.0; 3]; count];
-    let object = vec![0u32; count];
-    let flags = vec![0u32; count];
-    let mut ctx = SolveContext {
-        gravity: [0.0, -9.81, 0.0],
-        substeps: 10,
-        ..SolveContext::new(&mut x, &mut v, &x0, &inv_mass, &object, &flags, 1.0 / 600.0)
-    };
+    // The particle state the core owns, at rest, and the context of a call as the host builds it.
+    let mut state = CoreState::at_rest(rest, inv_mass, 1.0 / 600.0);
+    state.gravity = [0.0, -9.81, 0.0];
+    let mut ctx = state.ctx();
 
     let mut bench = c.benchmark_group("attract");
     bench

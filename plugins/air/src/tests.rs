@@ -5,6 +5,7 @@
 
 use nucleus_sdk::abi_stable::std_types::RSlice;
 use nucleus_sdk::prelude::*;
+use nucleus_sdk::testing::CoreState;
 use nucleus_sdk::GroupBox;
 
 use crate::{nucleus_plugin, AirGroup, AirParams};
@@ -131,57 +132,21 @@ impl Mesh {
     }
 }
 
-/// The particle state the core would own.
-struct State {
-    x: Vec<[f64; 3]>,
-    v: Vec<[f64; 3]>,
-    x0: Vec<[f64; 3]>,
-    inv_mass: Vec<f64>,
-    object: Vec<u32>,
-    flags: Vec<u32>,
-    time: f64,
+/// The particle state the core would own for `mesh` at rest: the SDK's [`CoreState`], with
+/// substeps of [`H`] and gravity −9.81 m/s² along −y (which the air's forces never read).
+fn core_state(mesh: &Mesh) -> CoreState {
+    let mut state = CoreState::at_rest(mesh.rest.clone(), mesh.inv_mass.clone(), H);
+    state.gravity = [0.0, -9.81, 0.0];
+    state
 }
 
-impl State {
-    fn new(mesh: &Mesh) -> Self {
-        let n = mesh.rest.len();
-        Self {
-            x: mesh.rest.clone(),
-            x0: mesh.rest.clone(),
-            v: vec![[0.0; 3]; n],
-            inv_mass: mesh.inv_mass.clone(),
-            object: vec![0; n],
-            flags: mesh
-                .inv_mass
-                .iter()
-                .map(|&w| if w == 0.0 { FLAG_KINEMATIC } else { 0 })
-                .collect(),
-            time: 0.0,
-        }
-    }
-
-    fn ctx(&mut self) -> SolveContext<'_> {
-        SolveContext {
-            time: self.time,
-            gravity: [0.0, -9.81, 0.0],
-            substeps: 10,
-            ..SolveContext::new(
-                &mut self.x,
-                &mut self.v,
-                &self.x0,
-                &self.inv_mass,
-                &self.object,
-                &self.flags,
-                H,
-            )
-        }
-    }
-
-    fn force(&mut self, group: &mut GroupBox) {
-        group.force(&mut self.ctx()).into_result().expect("force");
-    }
-
+/// The substep these tests take.
+trait Substep {
     /// A substep without constraints: the air's force stage, then free flight.
+    fn substep(&mut self, group: &mut GroupBox);
+}
+
+impl Substep for CoreState {
     fn substep(&mut self, group: &mut GroupBox) {
         self.force(group);
         for (x, v) in self.x.iter_mut().zip(&self.v) {
@@ -190,24 +155,6 @@ impl State {
             }
         }
         self.time += H;
-    }
-
-    fn report(&mut self, group: &GroupBox) -> Vec<(String, f64)> {
-        group
-            .report(&self.ctx())
-            .into_result()
-            .expect("report")
-            .iter()
-            .map(|s| (s.name.to_string(), s.value))
-            .collect()
-    }
-
-    fn all_finite(&self) -> bool {
-        self.x
-            .iter()
-            .chain(&self.v)
-            .flatten()
-            .all(|c| c.is_finite())
     }
 }
 
@@ -352,7 +299,7 @@ fn force_stage_changes_velocities_only_and_never_kinematic_particles() {
     let mut group = mesh
         .group(r#"{"drag": 1.0, "lift": 0.5, "wind_speed": 10, "wind_direction": [0, 1, 1]}"#)
         .expect("group");
-    let mut state = State::new(&mesh);
+    let mut state = core_state(&mesh);
     let x = state.x.clone();
     state.force(&mut group);
     assert_eq!(state.x, x);
@@ -384,7 +331,7 @@ fn velocity_changes_add_up_to_the_reported_force() {
     );
     let momentum_change = |h: f64| {
         let mut group = mesh.air(p);
-        let mut state = State::new(&mesh);
+        let mut state = core_state(&mesh);
         // Tilt the plate a little so every term works.
         for (k, x) in state.x.iter_mut().enumerate() {
             x[1] = 0.1 * x[0] + 0.01 * (k % 3) as f64;
@@ -419,7 +366,7 @@ fn held_plate_reports_its_load_and_does_not_move() {
     let mut group = mesh
         .group(r#"{"drag": 1.0, "wind_speed": 10, "wind_direction": [0, 1, 0]}"#)
         .expect("group");
-    let mut state = State::new(&mesh);
+    let mut state = core_state(&mesh);
     state.force(&mut group);
     assert!(state.v.iter().flatten().all(|&c| c == 0.0));
     let report = state.report(&group);
@@ -453,7 +400,7 @@ fn still_air_slows_a_moving_rope_and_particles() {
         let mut group = mesh
             .group(r#"{"drag": 1.0, "curve_width": 0.1, "particle_radius": 0.2}"#)
             .expect("group");
-        let mut state = State::new(&mesh);
+        let mut state = core_state(&mesh);
         for v in &mut state.v {
             *v = [3.0, 0.0, 0.0];
         }
@@ -481,7 +428,7 @@ fn degenerate_geometry_gives_no_nan() {
     let mut group = mesh
         .group(r#"{"drag": 1, "lift": 1, "tangential_drag": 1, "wind_speed": 20, "noise": 5}"#)
         .expect("group");
-    let mut state = State::new(&mesh);
+    let mut state = core_state(&mesh);
     for x in &mut state.x {
         *x = [0.25, -0.5, 1.0];
     }
@@ -515,7 +462,7 @@ fn gusty_runs_are_bit_identical_and_depend_on_the_seed() {
                 r#"{{"drag": 1, "lift": 0.5, "wind_speed": 5, "noise": 2, "noise_frequency": 3, "seed": {seed}}}"#
             ))
             .expect("group");
-        let mut state = State::new(&mesh);
+        let mut state = core_state(&mesh);
         for _ in 0..50 {
             state.substep(&mut group);
         }
@@ -535,7 +482,7 @@ fn gusty_runs_are_bit_identical_and_depend_on_the_seed() {
 fn a_state_too_small_for_the_group_is_an_error_not_a_panic() {
     let mesh = Mesh::plate(2, 1.0);
     let mut group = mesh.group("{}").expect("group");
-    let mut state = State::new(&mesh);
+    let mut state = core_state(&mesh);
     state.x.truncate(4);
     state.v.truncate(4);
     state.inv_mass.truncate(4);

@@ -9,6 +9,7 @@ use std::path::PathBuf;
 use nucleus_core::{Registry, Simulation};
 use nucleus_sdk::abi_stable::std_types::RSlice;
 use nucleus_sdk::prelude::*;
+use nucleus_sdk::testing::CoreState;
 use nucleus_sdk::{EdgePair, GroupBox, TrianglePair};
 
 use crate::dihedral::dihedral_angle;
@@ -177,92 +178,46 @@ impl Mesh {
 
 const H: f64 = 1.0 / 600.0;
 
-/// The particle state the core would own, and its substep.
-struct State {
-    x: Vec<[f64; 3]>,
-    v: Vec<[f64; 3]>,
-    x0: Vec<[f64; 3]>,
-    inv_mass: Vec<f64>,
-    object: Vec<u32>,
-    flags: Vec<u32>,
-    /// Substep length (s).
-    h: f64,
-    /// Gravity's y component (m/s²).
-    gravity: f64,
+/// The particle state the core would own at `x`: the SDK's [`CoreState`], with substeps of
+/// [`H`] and no gravity.
+fn core_state(mesh: &Mesh, x: Vec<[f64; 3]>) -> CoreState {
+    CoreState::at_rest(x, mesh.inv_mass.clone(), H)
 }
 
-impl State {
-    fn new(mesh: &Mesh, x: Vec<[f64; 3]>) -> Self {
-        let n = x.len();
-        Self {
-            x0: x.clone(),
-            x,
-            v: vec![[0.0; 3]; n],
-            inv_mass: mesh.inv_mass.clone(),
-            object: vec![0; n],
-            flags: vec![0; n],
-            h: H,
-            gravity: 0.0,
-        }
-    }
-
-    fn ctx(&mut self) -> SolveContext<'_> {
-        SolveContext {
-            gravity: [0.0, self.gravity, 0.0],
-            substeps: 10,
-            ..SolveContext::new(
-                &mut self.x,
-                &mut self.v,
-                &self.x0,
-                &self.inv_mass,
-                &self.object,
-                &self.flags,
-                self.h,
-            )
-        }
-    }
-
+/// The substep these tests take.
+trait Substep {
     /// One substep as the core runs it (gravity, prediction, `begin_substep`, one pass of
     /// every group, velocity update), with velocity damping `v *= 1 − damping·h` afterwards.
+    fn substep(&mut self, groups: &mut [GroupBox], damping: f64);
+}
+
+impl Substep for CoreState {
     fn substep(&mut self, groups: &mut [GroupBox], damping: f64) {
-        let h = self.h;
+        let (h, g) = (self.h, self.gravity);
         for (v, &w) in self.v.iter_mut().zip(&self.inv_mass) {
             if w > 0.0 {
-                v[1] += h * self.gravity;
+                for k in 0..3 {
+                    v[k] += h * g[k];
+                }
             }
         }
-        self.x0.clone_from(&self.x);
+        self.start_substep();
         for (x, v) in self.x.iter_mut().zip(&self.v) {
             for k in 0..3 {
                 x[k] += h * v[k];
             }
         }
         for g in groups.iter_mut() {
-            g.begin_substep(&mut self.ctx())
-                .into_result()
-                .expect("begin");
+            self.begin(g);
         }
         for g in groups.iter_mut() {
-            g.project(&mut self.ctx()).into_result().expect("project");
+            self.project(g);
         }
         for ((v, x), x0) in self.v.iter_mut().zip(&self.x).zip(&self.x0) {
             for k in 0..3 {
                 v[k] = (x[k] - x0[k]) / h * (1.0 - damping * h);
             }
         }
-    }
-
-    fn residual(&mut self, group: &GroupBox) -> Residual {
-        group.residual(&self.ctx()).into_result().expect("residual")
-    }
-
-    fn report(&mut self, group: &GroupBox, key: &str) -> f64 {
-        let stats = group.report(&self.ctx()).into_result().expect("report");
-        stats
-            .iter()
-            .find(|s| s.name.as_str() == key)
-            .unwrap_or_else(|| panic!("no stat {key}"))
-            .value
     }
 }
 
@@ -413,7 +368,7 @@ fn rest_shape_has_zero_residual_for_every_kind() {
     let helix = Mesh::helix(20);
     for kind in ["bend", "twist"] {
         let g = helix.group(kind, "{}").expect("group");
-        let r = State::new(&helix, helix.rest.clone()).residual(&g);
+        let r = core_state(&helix, helix.rest.clone()).residual(&g);
         assert_eq!(r.count, g.constraint_count());
         assert!(r.max < 1e-12 && r.energy < 1e-12, "{kind}: {r:?}");
     }
@@ -538,7 +493,7 @@ fn twist_restores_a_disturbed_helix_which_bend_alone_cannot() {
             );
         }
         let twist = helix.group("twist", "{}").expect("twist");
-        let mut state = State::new(&helix, disturbed.clone());
+        let mut state = core_state(&helix, disturbed.clone());
         let before = state.residual(&twist).max;
         for _ in 0..600 {
             state.substep(&mut groups, 20.0);
@@ -576,9 +531,9 @@ fn a_hanging_coil_keeps_its_coils_with_twist_and_unwinds_without() {
         if with_twist {
             groups.push(coil.group("twist", params).expect("twist"));
         }
-        let mut state = State::new(&coil, coil.rest.clone());
+        let mut state = core_state(&coil, coil.rest.clone());
         state.h = 1.0 / 3000.0;
-        state.gravity = -9.81;
+        state.gravity = [0.0, -9.81, 0.0];
         for _ in 0..12_000 {
             state.substep(&mut groups, 0.5);
         }
@@ -623,9 +578,9 @@ fn degenerate_states_are_skipped_and_reported_without_nan() {
         .group("twist", r#"{"compliance": 0.0}"#)
         .expect("twist")];
     let line: Vec<[f64; 3]> = (0..9).map(|k| [0.0, 0.0, k as f64 * 0.01]).collect();
-    let mut state = State::new(&helix, line);
+    let mut state = core_state(&helix, line);
     state.substep(&mut twist, 0.0);
-    assert_eq!(state.report(&twist[0], "skipped"), 6.0);
+    assert_eq!(state.stat(&twist[0], "skipped"), 6.0);
     assert!(state.x.iter().flatten().all(|c| c.is_finite()));
 }
 
@@ -664,7 +619,7 @@ fn degenerate_rest_elements_are_dropped_and_reported() {
     let g = curve.group("bend", "{}").expect("bend");
     assert_eq!(g.constraint_count(), 1);
     assert_eq!(
-        State::new(&curve, curve.rest.clone()).report(&g, "dropped"),
+        core_state(&curve, curve.rest.clone()).stat(&g, "dropped"),
         1.0
     );
 }

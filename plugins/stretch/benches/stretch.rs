@@ -14,6 +14,7 @@ use std::time::Duration;
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
 use nucleus_sdk::abi_stable::std_types::RSlice;
 use nucleus_sdk::prelude::*;
+use nucleus_sdk::testing::CoreState;
 use nucleus_sdk::GroupBox;
 
 /// Vertices per side.
@@ -77,15 +78,14 @@ fn group(cloth: &Cloth, kind: &str, params: &str) -> GroupBox {
 fn project_pass(c: &mut Criterion) {
     let cloth = cloth();
     // Stretched by 5 % with a ripple in z, so every constraint does real work.
-    let mut x: Vec<[f64; 3]> = cloth
+    let x: Vec<[f64; 3]> = cloth
         .rest
         .iter()
         .map(|p| [1.05 * p[0], 1.05 * p[1], 0.01 * (20.0 * p[0]).sin()])
         .collect();
-    let x0 = cloth.rest.clone();
-    let mut v = vec![[0.0; 3]; x.len()];
-    let object = vec![0u32; x.len()];
-    let flags = vec![0u32; x.len()];
+    let mut state = CoreState::at_rest(x, cloth.inv_mass.clone(), 1.0 / 240.0);
+    state.x0.clone_from(&cloth.rest);
+    state.gravity = [0.0, 0.0, -9.81];
 
     let team = nucleus_sdk::team::Team::new(nucleus_sdk::team::configured_threads() - 1);
     let mut bench = c.benchmark_group("stretch");
@@ -116,22 +116,12 @@ fn project_pass(c: &mut Criterion) {
             true,
         ),
     ] {
-        let start = x.clone();
+        let start = state.x.clone();
         let mut g = group(&cloth, kind, params);
         bench.throughput(Throughput::Elements(g.constraint_count()));
         let mut ctx = SolveContext {
-            gravity: [0.0, 0.0, -9.81],
-            substeps: 10,
             team: nucleus_sdk::TeamRef::new(&team),
-            ..SolveContext::new(
-                &mut x,
-                &mut v,
-                &x0,
-                &cloth.inv_mass,
-                &object,
-                &flags,
-                1.0 / 240.0,
-            )
+            ..state.ctx()
         };
         if let Err(e) = g.begin_substep(&mut ctx).into_result() {
             panic!("begin_substep failed: {e}");

@@ -328,14 +328,14 @@ fn a_hanging_cloth_falls_without_stretching() {
     } = hanging_cloth(60);
     let r = state.residual(&group);
     let (iterations, levels) = (
-        state.report(&group, "cg_iterations"),
-        state.report(&group, "levels"),
+        state.stat(&group, "cg_iterations"),
+        state.stat(&group, "levels"),
     );
     println!(
         "17 x 17 cloth, 60 frames of 2 x 2: max strain over all frames {worst:.5}, last frame max {:.5} RMS {:.6}; lowest z reached {lowest:.3} m; last CG iterations {iterations}, levels {levels}, halvings in the last frame {}",
         r.max,
         r.rms,
-        state.report(&group, "halvings")
+        state.stat(&group, "halvings")
     );
     assert_eq!(group.constraint_count(), mesh.edges.len() as u64);
     assert!(worst <= 0.01, "max strain {worst}");
@@ -374,7 +374,7 @@ fn pins_stay_where_the_scene_puts_them() {
     let mut state = State::with_substep(&mesh, mesh.rest.clone(), 1.0 / 120.0);
     for frame in 0..10 {
         state.frame = frame;
-        state.x0.clone_from(&state.x);
+        state.start_substep();
         let moved = [0.01 * frame as f64, 0.0, -0.02 * frame as f64];
         state.x[0] = moved;
         state.begin(&mut group);
@@ -412,7 +412,7 @@ fn momentum_after_one_pass(params: &str) -> (f64, f64, f64, f64) {
     let mut state = State::with_substep(&mesh, start.clone(), h);
     state.begin(&mut group);
     state.project(&mut group);
-    let reduction = state.report(&group, "cg_reduction");
+    let reduction = state.stat(&group, "cg_reduction");
     let mut momentum = DVec3::ZERO;
     let mut moved = 0.0;
     for ((x, x0), &w) in state.x.iter().zip(&start).zip(&mesh.inv_mass) {

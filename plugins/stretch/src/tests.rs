@@ -4,6 +4,7 @@
 
 use nucleus_sdk::abi_stable::std_types::RSlice;
 use nucleus_sdk::prelude::*;
+use nucleus_sdk::testing::CoreState;
 use nucleus_sdk::GroupBox;
 
 use crate::{nucleus_plugin, StretchGroup, StretchParams};
@@ -95,17 +96,21 @@ impl Mesh {
     }
 }
 
-/// The particle state the core would own, the substep length and the frame (shared with the
-/// other kinds' tests).
-pub(crate) struct State {
-    pub(crate) x: Vec<[f64; 3]>,
-    pub(crate) v: Vec<[f64; 3]>,
-    pub(crate) x0: Vec<[f64; 3]>,
-    pub(crate) inv_mass: Vec<f64>,
-    object: Vec<u32>,
-    flags: Vec<u32>,
-    h: f64,
-    pub(crate) frame: u64,
+/// The particle state the core would own ([`CoreState`], with gravity along −z in every
+/// context) and the substeps these tests take (shared with the other kinds' tests).
+pub(crate) struct State(CoreState);
+
+impl std::ops::Deref for State {
+    type Target = CoreState;
+    fn deref(&self) -> &CoreState {
+        &self.0
+    }
+}
+
+impl std::ops::DerefMut for State {
+    fn deref_mut(&mut self) -> &mut CoreState {
+        &mut self.0
+    }
 }
 
 impl State {
@@ -116,49 +121,9 @@ impl State {
 
     /// At `x`, at rest, with substeps of `h` (s).
     pub(crate) fn with_substep(mesh: &Mesh, x: Vec<[f64; 3]>, h: f64) -> Self {
-        let n = x.len();
-        Self {
-            x0: x.clone(),
-            x,
-            v: vec![[0.0; 3]; n],
-            inv_mass: mesh.inv_mass.clone(),
-            object: vec![0; n],
-            flags: vec![0; n],
-            h,
-            frame: 0,
-        }
-    }
-
-    pub(crate) fn ctx(&mut self) -> SolveContext<'_> {
-        let (h, frame) = (self.h, self.frame);
-        SolveContext {
-            gravity: [0.0, 0.0, -9.81],
-            substeps: 10,
-            frame,
-            ..SolveContext::new(
-                &mut self.x,
-                &mut self.v,
-                &self.x0,
-                &self.inv_mass,
-                &self.object,
-                &self.flags,
-                h,
-            )
-        }
-    }
-
-    pub(crate) fn begin(&mut self, group: &mut GroupBox) {
-        group
-            .begin_substep(&mut self.ctx())
-            .into_result()
-            .expect("begin");
-    }
-
-    pub(crate) fn project(&mut self, group: &mut GroupBox) {
-        group
-            .project(&mut self.ctx())
-            .into_result()
-            .expect("project");
+        let mut state = CoreState::at_rest(x, mesh.inv_mass.clone(), h);
+        state.gravity = [0.0, 0.0, -9.81];
+        Self(state)
     }
 
     /// One substep as the core runs it: prediction, `begin_substep`, `passes` projections,
@@ -172,8 +137,14 @@ impl State {
     /// `v = (x − x0)/h`.
     pub(crate) fn substep_under(&mut self, group: &mut GroupBox, gravity: DVec3, passes: u32) {
         let h = self.h;
-        self.x0.clone_from(&self.x);
-        for ((x, v), &w) in self.x.iter_mut().zip(self.v.iter_mut()).zip(&self.inv_mass) {
+        let state = &mut self.0;
+        state.start_substep();
+        for ((x, v), &w) in state
+            .x
+            .iter_mut()
+            .zip(state.v.iter_mut())
+            .zip(&state.inv_mass)
+        {
             if w > 0.0 {
                 for k in 0..3 {
                     v[k] += h * gravity[k];
@@ -181,33 +152,15 @@ impl State {
                 }
             }
         }
-        self.begin(group);
+        state.begin(group);
         for _ in 0..passes {
-            self.project(group);
+            state.project(group);
         }
-        for ((v, x), x0) in self.v.iter_mut().zip(&self.x).zip(&self.x0) {
+        for ((v, x), x0) in state.v.iter_mut().zip(&state.x).zip(&state.x0) {
             for k in 0..3 {
                 v[k] = (x[k] - x0[k]) / h;
             }
         }
-    }
-
-    pub(crate) fn residual(&mut self, group: &GroupBox) -> Residual {
-        group.residual(&self.ctx()).into_result().expect("residual")
-    }
-
-    /// The value of the stat `name` the group reports.
-    pub(crate) fn report(&mut self, group: &GroupBox, name: &str) -> f64 {
-        let stats = group.report(&self.ctx()).into_result().expect("report");
-        stats
-            .iter()
-            .find(|s| s.name.as_str() == name)
-            .unwrap_or_else(|| panic!("no stat {name}"))
-            .value
-    }
-
-    pub(crate) fn all_finite(&self) -> bool {
-        self.x.iter().flatten().all(|c| c.is_finite())
     }
 
     pub(crate) fn bits(&self) -> Vec<u64> {
@@ -317,7 +270,7 @@ fn a_hard_group_keeps_no_multipliers_so_it_needs_no_begin_stage() {
         let mut group = mesh.group("{}").expect("hard");
         let mut state = State::new(&mesh, stretched(&mesh, 1.2));
         for _ in 0..5 {
-            state.x0.clone_from(&state.x);
+            state.start_substep();
             if begin {
                 group
                     .begin_substep(&mut state.ctx())
@@ -544,7 +497,7 @@ fn extra_passes_do_not_stiffen_an_isolated_compliant_edge() {
         let mut group = mesh.group(r#"{"compliance": 1e-4}"#).expect("group");
         let mut state = State::new(&mesh, vec![[0.0; 3], [1.5, 0.2, 0.0]]);
         state.substep(&mut group, passes);
-        state.x
+        state.x.clone()
     };
     let once = run(1);
     for passes in [2, 5, 20] {
@@ -634,7 +587,7 @@ fn projection_is_deterministic() {
         for _ in 0..20 {
             state.substep(&mut group, 2);
         }
-        state.x
+        state.x.clone()
     };
     let bits = |x: Vec<[f64; 3]>| x.iter().flatten().map(|c| c.to_bits()).collect::<Vec<_>>();
     assert_eq!(bits(run()), bits(run()));
