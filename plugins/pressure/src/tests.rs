@@ -569,15 +569,9 @@ fn a_state_too_small_for_the_group_is_an_error_not_a_panic() {
     );
     let mut sim = simulation(&text);
     let group = &mut sim.groups[0].group;
-    let mut x = vec![[0.0; 3]; 4];
-    let mut v = vec![[0.0; 3]; 4];
-    let x0 = x.clone();
-    let w = vec![1.0; 4];
-    let zeros = vec![0u32; 4];
-    let mut ctx = nucleus_sdk::SolveContext {
-        substeps: 10,
-        ..nucleus_sdk::SolveContext::new(&mut x, &mut v, &x0, &w, &zeros, &zeros, 1.0 / 600.0)
-    };
+    let mut state =
+        nucleus_sdk::testing::CoreState::at_rest(vec![[0.0; 3]; 4], vec![1.0; 4], 1.0 / 600.0);
+    let mut ctx = state.ctx();
     for e in [
         group.force(&mut ctx).into_result(),
         group.project(&mut ctx).into_result(),
