@@ -3,7 +3,8 @@
 //! passes, 5 CG iterations a pass, the multigrid's coarse particles turning): at N = 32 the
 //! structural edges stay within the target's bounds (max strain 1 %, RMS 0.1 %), the cloth
 //! falls as converged solvers make it fall (without the rotations it does not; with two Newton
-//! steps a substep it does only after `start_passes`), and one and two threads give the same
+//! steps a substep it does only after `start_passes`), it makes no energy where a cheaper
+//! setting does, and one and two threads give the same
 //! bits — at N = 32, where every loop of the kind runs on one thread, and at N = 96, where the
 //! fine level's assembly, products and Gauss-Seidel colours are split over the team.
 
@@ -19,6 +20,18 @@ fn drape_newton(n: u32) -> Simulation {
 /// `scenes/drape_newton.toml` at `n × n` vertices, with `params` (say `rotations = false, `)
 /// added to the kind's and `iterations` Newton steps a substep instead of 4.
 fn drape_newton_with(n: u32, params: &str, iterations: u32) -> Simulation {
+    drape_newton_setting(n, params, 2, iterations, 5)
+}
+
+/// `scenes/drape_newton.toml` at `n × n` vertices, with `params` added to the kind's,
+/// `substeps` × `iterations` Newton steps a frame and `cg` CG iterations a step.
+fn drape_newton_setting(
+    n: u32,
+    params: &str,
+    substeps: u32,
+    iterations: u32,
+    cg: u32,
+) -> Simulation {
     let text = std::fs::read_to_string(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/../scenes/drape_newton.toml"
@@ -27,7 +40,9 @@ fn drape_newton_with(n: u32, params: &str, iterations: u32) -> Simulation {
     let mut edited = text.clone();
     for (line, with) in [
         ("params = { ", format!("params = {{ {params}")),
+        ("substeps = 2\n", format!("substeps = {substeps}\n")),
         ("iterations = 4\n", format!("iterations = {iterations}\n")),
+        ("cg_iterations = 5 }", format!("cg_iterations = {cg} }}")),
         ("resolution = [64, 64]", format!("resolution = [{n}, {n}]")),
     ] {
         assert!(
@@ -175,6 +190,36 @@ fn without_rotations_five_cg_iterations_hold_the_drape_up() {
         half > -0.489 + 0.05,
         "mean height {half} m at 0.5 s: it fell"
     );
+}
+
+/// The largest rise of the total energy (kinetic, gravity and the springs' stored energy, J)
+/// above its lowest value before, over `frames` frames: the drape has no damping and no
+/// source, so a rise is energy the solver made (`bench/motion.py` prints the same from a run's
+/// `stats.csv`).
+fn largest_energy_rise(mut sim: Simulation, frames: u32) -> f64 {
+    let (mut lowest, mut rise) = (f64::INFINITY, 0.0f64);
+    for f in 0..frames {
+        sim.step_frame()
+            .unwrap_or_else(|e| panic!("frame {f}: {e}"));
+        let residuals = sim.residuals().expect("residuals");
+        let elastic: f64 = residuals.iter().map(|r| r.energy).sum();
+        let energy = sim.kinetic_energy() + sim.gravity_energy() + elastic;
+        lowest = lowest.min(energy);
+        rise = rise.max(energy - lowest);
+    }
+    rise
+}
+
+#[test]
+fn the_scene_makes_no_energy_where_three_cg_iterations_a_step_do() {
+    // Measured at N = 32 over 120 frames (`bench/motion.py`): the scene's 2 × 4 × 5 CG rises by
+    // 0.053 J at most, 1 × 8 × 3 CG by 0.52 J (frame 115; at N = 128 the same setting rises by
+    // 1.56 J); plain `stretch` at 320 × 2, whose passes are converged far better, by 0.16 J.
+    let scene = largest_energy_rise(drape_newton(32), 120);
+    let cheap = largest_energy_rise(drape_newton_setting(32, "", 1, 8, 3), 120);
+    println!("drape_newton N = 32, 120 frames: largest energy rise {scene:.3} J (the scene), {cheap:.3} J (1 x 8 x 3 CG)");
+    assert!(scene < 0.1, "the scene made {scene} J");
+    assert!(cheap > 0.3, "1 x 8 x 3 CG made only {cheap} J");
 }
 
 #[test]
