@@ -8,6 +8,7 @@ use std::time::Duration;
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
 use nucleus_sdk::abi_stable::std_types::RSlice;
 use nucleus_sdk::prelude::*;
+use nucleus_sdk::testing::CoreState;
 use nucleus_sdk::GroupBox;
 
 /// Vertices per side.
@@ -61,20 +62,20 @@ fn group(cloth: &Cloth, params: &str) -> GroupBox {
 fn force_pass(c: &mut Criterion) {
     let cloth = cloth();
     // A rippled cloth moving a little, so every triangle has its own normal and velocity.
-    let mut x: Vec<[f64; 3]> = cloth
+    let x: Vec<[f64; 3]> = cloth
         .rest
         .iter()
         .map(|p| [p[0], p[1], 0.05 * (12.0 * p[0]).sin() * (7.0 * p[1]).cos()])
         .collect();
-    let x0 = x.clone();
     let v0: Vec<[f64; 3]> = cloth
         .rest
         .iter()
         .map(|p| [0.0, 0.0, 0.3 * (9.0 * p[0] + 4.0 * p[1]).sin()])
         .collect();
-    let mut v = v0.clone();
-    let object = vec![0u32; x.len()];
-    let flags = vec![0u32; x.len()];
+    let mut state = CoreState::at_rest(x, cloth.inv_mass.clone(), 1.0 / 600.0);
+    state.v.clone_from(&v0);
+    state.time = 0.25;
+    state.gravity = [0.0, -9.81, 0.0];
 
     let mut bench = c.benchmark_group("air");
     bench
@@ -93,24 +94,11 @@ fn force_pass(c: &mut Criterion) {
     ] {
         let mut g = group(&cloth, params);
         bench.throughput(Throughput::Elements(g.constraint_count()));
-        let mut ctx = SolveContext {
-            time: 0.25,
-            gravity: [0.0, -9.81, 0.0],
-            substeps: 10,
-            ..SolveContext::new(
-                &mut x,
-                &mut v,
-                &x0,
-                &cloth.inv_mass,
-                &object,
-                &flags,
-                1.0 / 600.0,
-            )
-        };
+        let mut ctx = state.ctx();
         bench.bench_function(name, |b| {
             b.iter(|| black_box(g.force(black_box(&mut ctx))).is_ok())
         });
-        v.clone_from(&v0);
+        state.v.clone_from(&v0);
     }
     bench.finish();
 }

@@ -11,6 +11,7 @@ use std::time::Duration;
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
 use nucleus_sdk::abi_stable::std_types::RSlice;
 use nucleus_sdk::prelude::*;
+use nucleus_sdk::testing::CoreState;
 use nucleus_sdk::{EdgePair, GroupBox, TrianglePair};
 
 /// Vertices per side of the cloth.
@@ -127,7 +128,7 @@ fn project_pass(c: &mut Criterion) {
     for (what, shape, kind, name) in &cases {
         // Deformed so that every constraint does real work: a ripple across the cloth, a
         // stretched and wobbling coil.
-        let mut x: Vec<[f64; 3]> = shape
+        let x: Vec<[f64; 3]> = shape
             .rest
             .iter()
             .enumerate()
@@ -140,25 +141,11 @@ fn project_pass(c: &mut Criterion) {
                 ],
             })
             .collect();
-        let x0 = x.clone();
-        let mut v = vec![[0.0; 3]; x.len()];
-        let object = vec![0u32; x.len()];
-        let flags = vec![0u32; x.len()];
+        let mut state = CoreState::at_rest(x, shape.inv_mass.clone(), 1.0 / 600.0);
+        state.gravity = [0.0, -9.81, 0.0];
         let mut g = group(shape, kind, r#"{"compliance": 1e-2}"#);
         bench.throughput(Throughput::Elements(g.constraint_count()));
-        let mut ctx = SolveContext {
-            gravity: [0.0, -9.81, 0.0],
-            substeps: 10,
-            ..SolveContext::new(
-                &mut x,
-                &mut v,
-                &x0,
-                &shape.inv_mass,
-                &object,
-                &flags,
-                1.0 / 600.0,
-            )
-        };
+        let mut ctx = state.ctx();
         if let Err(e) = g.begin_substep(&mut ctx).into_result() {
             panic!("begin_substep failed: {e}");
         }
