@@ -226,9 +226,9 @@ fn the_scene_makes_no_energy_where_three_cg_iterations_a_step_do() {
 fn start_passes_let_two_newton_steps_a_substep_move_the_drape() {
     // Two Newton steps a substep from the prediction do not converge the drape's substep: it
     // is held up (measured at N = 32, 2 × 2, 5 CG: −0.168 / −0.472 m after 0.25 / 0.5 s).
-    // Five hard Gauss-Seidel passes first take the edges' local strain off, and the same two
-    // steps move it as converged solvers do (−0.221 / −0.498 m): half the scene's Newton
-    // steps. `bench/newton_pcg/primal.py --pbd-start K` shows the same with direct solves.
+    // Five Gauss-Seidel passes on the same springs first take the edges' local strain off, and
+    // the same two steps move it as converged solvers do (−0.222 / −0.497 m): half the scene's
+    // Newton steps. `bench/newton_pcg/primal.py --pbd-start K` shows the same with direct solves.
     let (quarter, half) = heights_at_quarter_and_half_second(drape_newton_with(32, "", 2));
     let (quarter_k, half_k) =
         heights_at_quarter_and_half_second(drape_newton_with(32, "start_passes = 5, ", 2));

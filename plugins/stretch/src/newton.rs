@@ -94,22 +94,24 @@
 //!
 //! ## Start passes
 //!
-//! With `start_passes = K > 0` each substep first runs `K` hard Gauss-Seidel passes over the
-//! same edges — the `stretch` kind's pass at compliance 0, its colours split over the team —
-//! from the prediction, before its first Newton step (`x̃` stays the prediction). The
+//! With `start_passes = K > 0` each substep first runs `K` Gauss-Seidel passes over the same
+//! springs — the `stretch` kind's XPBD pass with this kind's two compliances (so a soft
+//! compression keeps the buckling it allows), its colours split over the team — from the
+//! prediction, before its first Newton step (`x̃` stays the prediction). The
 //! prediction stretches every edge by about `g h²`; the passes take that local strain off for
 //! a fraction of a Newton step's cost, and the steps started from there are left the global
 //! motion. Two Newton steps a substep then move the drape right for its first 30 frames where,
 //! from the prediction, they hold it up (`bench/newton_pcg/primal.py --pbd-start K` shows the
 //! same with direct solves; `tests/newton_drape.rs`). Measured (README, part 6; 2 threads, one
 //! batch): at N = 128, 2 substeps of 3 Newton steps of 5 CG after 20 passes move the cloth
-//! right and make no energy in 272–290 ms a frame (max 0.074 %, RMS 0.0017 %), where the
-//! cheapest such setting without them, 1 × 8 × 5, takes 373–434 ms. They do not make an
-//! unconverged substep safe: with two Newton steps a substep the drape makes energy late in the
-//! run (N = 64, 2 × 2 × 5 after 10 passes: 1.9 J at frame 93), and a 12 × 12 cloth at 2 passes
-//! gains 11.3 %/s of its energy with 10 start passes against 1.66 %/s without (the stress
-//! suite, `docs/stress.md`). Check a whole run's motion and energy (`bench/motion.py`) before
-//! using a cheaper setting. Off by default.
+//! right in 332 ms a frame (max 0.112 %, RMS 0.0020 %, the energy rising by 0.42 J at most),
+//! where the cheapest setting without them that makes as little energy, 1 × 8 × 5, takes 395 ms
+//! (0.29 J). They do not make an unconverged substep safe: with two Newton steps a substep the
+//! drape makes energy late in the run (N = 64, 2 × 2 × 5 after 10 passes: 8.6 J at frame 30),
+//! and a 12 × 12 cloth at 2 passes gains 13.7 %/s of its energy with 10 start passes against
+//! 1.66 %/s without (the stress suite, `docs/stress.md`); the energy a setting makes is erratic
+//! (40 passes instead of 20: 7.6 J). Check a whole run's motion and energy (`bench/motion.py`)
+//! before using a cheaper setting. Off by default.
 //!
 //! It is a penalty method: `compliance` must be positive. Its default, 1e-8 m/N, lets a
 //! 1 m, 1 kg cloth hanging from two corners stretch about 1e-5 at the pins. The default order
@@ -158,8 +160,8 @@ pub struct NewtonParams {
     pub coarsest: i64,
     /// Whether coarse particles carry rotations as well as translations.
     pub rotations: bool,
-    /// Hard Gauss-Seidel edge passes from the prediction at the start of each substep, before
-    /// its first Newton step (0: none).
+    /// Gauss-Seidel (XPBD) passes over the same springs from the prediction at the start of
+    /// each substep, before its first Newton step (0: none).
     pub start_passes: i64,
 }
 
@@ -190,7 +192,7 @@ impl NewtonParams {
             ParamSpec::boolean("rotations", true)
                 .doc("each coarse particle of the multigrid carries a rotation about its current position as well as a translation, so that the coarse levels move the folded cloth's pieces rigidly (false: translations only, linear interpolation over the rest mesh, which leaves a cloth held up unless CG converges)"),
             ParamSpec::integer("start_passes", 0)
-                .doc("hard Gauss-Seidel passes over the edges (as the stretch kind's) from the prediction at the start of each substep: a start for the Newton steps that has the edges' local strain taken off, so that fewer steps converge")
+                .doc("Gauss-Seidel passes over the same springs (the stretch kind's XPBD pass, with this kind's two compliances) from the prediction at the start of each substep: a start for the Newton steps that has the edges' local strain taken off, so that fewer steps converge")
                 .range(0.0, 10000.0),
         ]
     }
@@ -262,7 +264,8 @@ pub struct NewtonGroup {
     substep_gradient: f64,
     halvings: u32,
     last_frame: u64,
-    /// The same edges as a hard `stretch` group, for the `start_passes` (`None` without).
+    /// The same edges and springs as a `stretch` group, for the `start_passes` (`None`
+    /// without).
     start: Option<(StretchGroup, u32)>,
 }
 
@@ -289,8 +292,15 @@ impl NewtonGroup {
         // Checked as `stretch` checks them; an edge between two pins is dropped.
         let all = Edges::scaled(p.rest_length_scale, scene)?;
         let start = (p.start_passes > 0).then(|| {
-            let hard = StretchGroup::from_edges(&StretchParams::default(), all.clone());
-            (hard, p.start_passes as u32)
+            // XPBD on the same springs: stiff in stretch, and as soft in compression as the
+            // kind, so that the start does not undo the buckling a soft compression allows.
+            let springs = StretchParams {
+                compliance: p.compliance,
+                compression_compliance: p.compression_compliance,
+                ..StretchParams::default()
+            };
+            let group = StretchGroup::from_edges(&springs, all.clone());
+            (group, p.start_passes as u32)
         });
         let Edges {
             ids: edges, rest, ..
@@ -530,6 +540,7 @@ impl ConstraintGroup for NewtonGroup {
         }
         self.substep_gradient = f64::NAN;
         if let Some((group, passes)) = self.start.as_mut() {
+            group.begin_substep(ctx)?;
             for _ in 0..*passes {
                 group.project(ctx)?;
             }

@@ -257,24 +257,23 @@ fn a_particle_on_one_spring_converges_to_the_exact_backward_euler_step() {
 
 #[test]
 fn start_passes_move_the_start_but_not_the_problem() {
-    // Hard passes at the substep's start put the particle at the spring's rest length; the
-    // Newton passes from there still converge to the backward-Euler step from the prediction
-    // x̃, a stretched spring — x̃ is recorded before the start passes move the particle.
+    // XPBD passes on the same spring at the substep's start take the particle most of the way
+    // from the prediction x̃ towards the backward-Euler step (0.27 m away: 0.07 m after three);
+    // the Newton passes from there still converge to that step from x̃ — x̃ is recorded before
+    // the start passes move the particle (recorded after, the step would be from their result,
+    // 0.097 m off, as measured with the order swapped).
     let params = r#"{"compliance": 1e-4, "compression_compliance": 1e-2, "cg_tolerance": 1e-15, "start_passes": 3}"#;
-    let rest = DVec3::new(0.3, 0.0, -0.9).length();
     let throw = DVec3::new(6.0, 20.0, -18.0);
     let (errors, exact) = hanging_particle(throw, None, params, 1e4, 8);
     let (from_prediction, _) = hanging_particle(throw, Some(DVec3::ZERO), params, 1e4, 0);
     println!(
-        "exact length {:.4} (rest {rest:.4}); from the prediction {from_prediction:?}, after 3 start passes and then per Newton pass {}",
+        "exact length {:.4}; from the prediction {:.3} m, after 3 start passes and then per Newton pass {}",
         exact.length(),
+        from_prediction[0],
         sci(&errors)
     );
-    assert!(exact.length() > rest * 1.05, "the spring is stretched");
-    // Moved from the prediction (|x̃| − |exact| away, on the same line) to the rest length:
-    // at least |exact| − rest from the exact step.
-    assert!(errors[0] >= exact.length() - rest - 1e-12, "{errors:?}");
-    assert!((errors[0] - from_prediction[0]).abs() > 0.01, "{errors:?}");
+    assert!(from_prediction[0] > 0.2, "{from_prediction:?}");
+    assert!(errors[0] < 0.5 * from_prediction[0], "{errors:?}");
     assert!(*errors.last().unwrap() < 1e-11, "{errors:?}");
 }
 
