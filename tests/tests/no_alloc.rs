@@ -167,8 +167,8 @@ fn stretch_solved_by_newton_steps_on_two_threads_allocates_nothing() {
     let _turn = turn();
     // 72 × 72 (5,182 unknowns, above the multigrid's 2,048 rows a part): the assembly, the
     // Galerkin products, the V-cycles, CG and the line search split over the team, with the
-    // coarse particles turning and hard start passes (colours of more than 256 edges) each
-    // substep.
+    // coarse particles turning and start passes (XPBD, with multipliers; colours of more than
+    // 256 edges) each substep.
     let scene = large_scene().replace(
         "kind = \"stretch\"\nparams = { compliance = 1e-6, damping = 0.1 }",
         "kind = \"stretch_newton\"\nparams = { cg_iterations = 5, start_passes = 2 }",

@@ -97,10 +97,9 @@
 //! With `start_passes = K > 0` each substep first runs `K` Gauss-Seidel passes over the same
 //! springs — the `stretch` kind's XPBD pass with this kind's two compliances (so a soft
 //! compression keeps the buckling it allows), its colours split over the team — from the
-//! prediction, before its first Newton step (`x̃` stays the prediction). The
-//! prediction stretches every edge by about `g h²`; the passes take that local strain off for
-//! a fraction of a Newton step's cost, and the steps started from there are left the global
-//! motion. Two Newton steps a substep then move the drape right for its first 30 frames where,
+//! prediction, before its first Newton step (`x̃` stays the prediction). The prediction
+//! stretches every edge by about `g h²`; the passes take that local strain off for a fraction
+//! of a Newton step's cost, and the steps started from there are left the global motion. Two Newton steps a substep then move the drape right for its first 30 frames where,
 //! from the prediction, they hold it up (`bench/newton_pcg/primal.py --pbd-start K` shows the
 //! same with direct solves; `tests/newton_drape.rs`). Measured (README, part 6; 2 threads, one
 //! batch): at N = 128, 2 substeps of 3 Newton steps of 5 CG after 20 passes move the cloth
@@ -570,14 +569,9 @@ impl ConstraintGroup for NewtonGroup {
         for g in self.gradient.iter_mut() {
             *g = -*g;
         }
-        let norm = self
-            .gradient
-            .iter()
-            .map(|g| g.length_squared())
-            .sum::<f64>()
-            .sqrt();
         if self.substep_gradient.is_nan() {
-            self.substep_gradient = norm;
+            let squared: f64 = self.gradient.iter().map(|g| g.length_squared()).sum();
+            self.substep_gradient = squared.sqrt();
         }
         let mut step = std::mem::take(&mut self.step);
         self.last = self.pcg.solve(

@@ -4,7 +4,7 @@
 //! build's and the parameters' errors.
 
 use super::*;
-use crate::tests::{stretched_by, Mesh, State};
+use crate::tests::{stretched_by, Mesh, State, Steps};
 use nucleus_sdk::GroupBox;
 
 /// A flat square grid of `cells × cells` quads in the plane z = 0, side 1 m, each quad split

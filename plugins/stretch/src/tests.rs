@@ -96,55 +96,50 @@ impl Mesh {
     }
 }
 
-/// The particle state the core would own ([`CoreState`], with gravity along −z in every
-/// context) and the substeps these tests take (shared with the other kinds' tests).
-pub(crate) struct State(CoreState);
+/// The particle state the core would own: the SDK's [`CoreState`], built and stepped by
+/// [`Steps`] (shared with the other kinds' tests).
+pub(crate) type State = CoreState;
 
-impl std::ops::Deref for State {
-    type Target = CoreState;
-    fn deref(&self) -> &CoreState {
-        &self.0
-    }
-}
+/// How these tests build and step a [`State`].
+pub(crate) trait Steps {
+    /// At `x`, at rest, with substeps of [`H`] and gravity along −z in every context.
+    fn new(mesh: &Mesh, x: Vec<[f64; 3]>) -> Self;
 
-impl std::ops::DerefMut for State {
-    fn deref_mut(&mut self) -> &mut CoreState {
-        &mut self.0
-    }
-}
-
-impl State {
-    /// At `x`, at rest, with substeps of [`H`].
-    pub(crate) fn new(mesh: &Mesh, x: Vec<[f64; 3]>) -> Self {
-        Self::with_substep(mesh, x, H)
-    }
-
-    /// At `x`, at rest, with substeps of `h` (s).
-    pub(crate) fn with_substep(mesh: &Mesh, x: Vec<[f64; 3]>, h: f64) -> Self {
-        let mut state = CoreState::at_rest(x, mesh.inv_mass.clone(), h);
-        state.gravity = [0.0, 0.0, -9.81];
-        Self(state)
-    }
+    /// At `x`, at rest, with substeps of `h` (s) and gravity along −z in every context.
+    fn with_substep(mesh: &Mesh, x: Vec<[f64; 3]>, h: f64) -> Self;
 
     /// One substep as the core runs it: prediction, `begin_substep`, `passes` projections,
     /// velocity update. No external force.
-    pub(crate) fn substep(&mut self, group: &mut GroupBox, passes: u32) {
-        self.substep_under(group, DVec3::ZERO, passes);
-    }
+    fn substep(&mut self, group: &mut GroupBox, passes: u32);
 
     /// One substep under `gravity` (m/s²): into the free particles' velocities, the prediction
     /// `x = x0 + h v` of the free particles, `begin_substep`, `passes` projections,
     /// `v = (x − x0)/h`.
-    pub(crate) fn substep_under(&mut self, group: &mut GroupBox, gravity: DVec3, passes: u32) {
+    fn substep_under(&mut self, group: &mut GroupBox, gravity: DVec3, passes: u32);
+
+    /// The positions' bits.
+    fn bits(&self) -> Vec<u64>;
+}
+
+impl Steps for CoreState {
+    fn new(mesh: &Mesh, x: Vec<[f64; 3]>) -> Self {
+        Self::with_substep(mesh, x, H)
+    }
+
+    fn with_substep(mesh: &Mesh, x: Vec<[f64; 3]>, h: f64) -> Self {
+        let mut state = CoreState::at_rest(x, mesh.inv_mass.clone(), h);
+        state.gravity = [0.0, 0.0, -9.81];
+        state
+    }
+
+    fn substep(&mut self, group: &mut GroupBox, passes: u32) {
+        self.substep_under(group, DVec3::ZERO, passes);
+    }
+
+    fn substep_under(&mut self, group: &mut GroupBox, gravity: DVec3, passes: u32) {
         let h = self.h;
-        let state = &mut self.0;
-        state.start_substep();
-        for ((x, v), &w) in state
-            .x
-            .iter_mut()
-            .zip(state.v.iter_mut())
-            .zip(&state.inv_mass)
-        {
+        self.start_substep();
+        for ((x, v), &w) in self.x.iter_mut().zip(self.v.iter_mut()).zip(&self.inv_mass) {
             if w > 0.0 {
                 for k in 0..3 {
                     v[k] += h * gravity[k];
@@ -152,18 +147,18 @@ impl State {
                 }
             }
         }
-        state.begin(group);
+        self.begin(group);
         for _ in 0..passes {
-            state.project(group);
+            self.project(group);
         }
-        for ((v, x), x0) in state.v.iter_mut().zip(&state.x).zip(&state.x0) {
+        for ((v, x), x0) in self.v.iter_mut().zip(&self.x).zip(&self.x0) {
             for k in 0..3 {
                 v[k] = (x[k] - x0[k]) / h;
             }
         }
     }
 
-    pub(crate) fn bits(&self) -> Vec<u64> {
+    fn bits(&self) -> Vec<u64> {
         self.x.iter().flatten().map(|c| c.to_bits()).collect()
     }
 }
@@ -497,7 +492,7 @@ fn extra_passes_do_not_stiffen_an_isolated_compliant_edge() {
         let mut group = mesh.group(r#"{"compliance": 1e-4}"#).expect("group");
         let mut state = State::new(&mesh, vec![[0.0; 3], [1.5, 0.2, 0.0]]);
         state.substep(&mut group, passes);
-        state.x.clone()
+        state.x
     };
     let once = run(1);
     for passes in [2, 5, 20] {
@@ -587,7 +582,7 @@ fn projection_is_deterministic() {
         for _ in 0..20 {
             state.substep(&mut group, 2);
         }
-        state.x.clone()
+        state.x
     };
     let bits = |x: Vec<[f64; 3]>| x.iter().flatten().map(|c| c.to_bits()).collect::<Vec<_>>();
     assert_eq!(bits(run()), bits(run()));
