@@ -6,7 +6,11 @@ use nucleus_sdk::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::chebyshev::{Chebyshev, MAX_RHO};
-use crate::distance::{project_distance_hard, project_distance_with, EdgeMaterial, XpbdTerms};
+use crate::distance::EdgeMaterial;
+use crate::lanes::{
+    project_colour_compliant, project_colour_hard, project_edges_compliant_one_by_one,
+    project_edges_hard_one_by_one,
+};
 use nucleus_sdk::team::{span, SharedArray};
 
 /// Smallest valid `rest_length_scale`: the scale must be positive, and a bound that prints
@@ -174,67 +178,6 @@ pub struct StretchGroup {
 /// 4,096 edges), the 32 × 32 one in 7.3 instead of 8.6, and the default demo in 1.14 instead of
 /// 1.26 ms; 512 was slower than both on the 32 × 32 drape (9.4 ms).
 pub(crate) const PARALLEL_MIN_EDGES: usize = 256;
-
-/// Projects the hard edges `ids[k]` for every `k`, in order: no multipliers, since the hard
-/// step never reads them.
-///
-/// # Safety
-/// `x` points to at least `max index + 1` positions, valid for the duration of the call, and
-/// no other thread reads or writes the positions of these edges' particles meanwhile.
-unsafe fn project_edges_hard(
-    x: SharedArray<DVec3>,
-    x0: &[DVec3],
-    w: &[f64],
-    ids: &[[u32; 2]],
-    rest: &[f64],
-) {
-    for (&[i, j], &rest) in ids.iter().zip(rest) {
-        let (i, j) = (i as usize, j as usize);
-        let (pi, pj) = (x.at(i), x.at(j));
-        // SAFETY: indices are in bounds (checked against the state before the pass) and the
-        // caller guarantees exclusive access to particles i and j.
-        let (xi, xj) = unsafe { (*pi, *pj) };
-        if let Some(c) = project_distance_hard([xi, xj], [x0[i], x0[j]], [w[i], w[j]], rest) {
-            // SAFETY: as above.
-            unsafe {
-                *pi = xi + c.dxi;
-                *pj = xj + c.dxj;
-            }
-        }
-    }
-}
-
-/// Projects the compliant edges `ids[k]` for every `k`, in order, accumulating each edge's
-/// multiplier in `lambda[k]`.
-///
-/// # Safety
-/// As [`project_edges_hard`].
-unsafe fn project_edges_compliant(
-    x: SharedArray<DVec3>,
-    x0: &[DVec3],
-    w: &[f64],
-    ids: &[[u32; 2]],
-    rest: &[f64],
-    lambda: &mut [f64],
-    terms: &XpbdTerms,
-) {
-    for ((&[i, j], &rest), lambda) in ids.iter().zip(rest).zip(lambda) {
-        let (i, j) = (i as usize, j as usize);
-        let (pi, pj) = (x.at(i), x.at(j));
-        // SAFETY: as in `project_edges_hard`.
-        let (xi, xj) = unsafe { (*pi, *pj) };
-        let start = [x0[i], x0[j]];
-        if let Some(c) = project_distance_with([xi, xj], start, [w[i], w[j]], rest, terms, *lambda)
-        {
-            // SAFETY: as above.
-            unsafe {
-                *pi = xi + c.dxi;
-                *pj = xj + c.dxj;
-            }
-            *lambda += c.delta_lambda;
-        }
-    }
-}
 
 /// The edges of a `stretch` group's targets, checked, with their rest lengths, in the scene's
 /// order: what both ways of solving them ([`Blocks`]) start from.
@@ -446,19 +389,25 @@ impl ConstraintGroup for StretchGroup {
         let terms = self.material.terms(h);
         // Projects the edges `start..start + len` of the batch. Called below only with a whole
         // batch, or with the disjoint parts of one colour at once.
-        let project_range = |start: usize, len: usize| {
+        let project_range = |start: usize, len: usize, independent: bool| {
             let (ids, rest) = (&ids[start..start + len], &rest[start..start + len]);
             // SAFETY: a whole batch runs on this thread alone; the parts of one colour share
             // no particle and take disjoint ranges of the multipliers (which a compliant group
             // holds one per edge). `x` comes from the exclusive borrow of the positions held for
             // this whole call, and the indices were checked above.
             unsafe {
-                if hard {
+                if hard && independent {
+                    // One colour: four edges at a time where the processor can.
+                    project_colour_hard(x, x0, w, ids, rest)
+                } else if hard {
                     // The kernel with the shorter dependency chain.
-                    project_edges_hard(x, x0, w, ids, rest)
+                    project_edges_hard_one_by_one(x, x0, w, ids, rest)
+                } else if independent {
+                    let lambda = lambda.slice(start, len);
+                    project_colour_compliant(x, x0, w, ids, rest, lambda, &terms)
                 } else {
                     let lambda = lambda.slice(start, len);
-                    project_edges_compliant(x, x0, w, ids, rest, lambda, &terms)
+                    project_edges_compliant_one_by_one(x, x0, w, ids, rest, lambda, &terms)
                 }
             }
         };
@@ -467,10 +416,10 @@ impl ConstraintGroup for StretchGroup {
                 2.. if *independent && range.len() >= PARALLEL_MIN_EDGES => {
                     team.run(&|part| {
                         let span = span(part, parts, range.len());
-                        project_range(range.start + span.start, span.len())
+                        project_range(range.start + span.start, span.len(), true)
                     });
                 }
-                _ => project_range(range.start, range.len()),
+                _ => project_range(range.start, range.len(), *independent),
             }
         }
         if let Some(c) = self.chebyshev.as_mut() {

@@ -115,15 +115,34 @@
 //! divisions per normalisation) took 749 µs for the hard pass on one thread.
 //!
 //! The hard kernel neither reads nor writes a multiplier (431 µs when it still accumulated
-//! one that nothing read). Two more forms were measured and not kept, both against 436 µs for
-//! this one at the time: projecting a
-//! colour 32 edges at a time, gathered into one array per component so that the arithmetic
-//! runs four edges per AVX2 instruction (bit-identical to this kernel), took 547–600 µs — the
-//! gather and scatter cost more than the vector arithmetic saved; and one square root per edge
-//! instead of two (the start-direction test on squares, no multiplier) took 445 µs, no gain.
-//! So neither the divider nor the arithmetic bounds the pass; our reading, not measured
-//! further, is the loads and stores of each edge's two particles, scattered over the cloth.
+//! one that nothing read). One square root per edge instead of two (the start-direction test
+//! on squares) was measured and not kept: 445 µs against 436, no gain.
 //!
+//! **Four edges per instruction** (`lanes`, since 2026-11-24). Within a colour, both kernels
+//! run four consecutive edges in AVX2's 256-bit lanes where the processor has AVX2 (checked
+//! once at run time; the edges left over, and other processors, take the one-edge kernels).
+//! The arithmetic is the one-edge kernels', operation for operation and without fused
+//! multiply-adds, so every position and multiplier has the same bits. Unit tests check this
+//! on random colours with every degenerate case, and scenes give byte-identical frames. Same
+//! benchmark, the build before and after run alternately three times in one session, one
+//! thread, on a machine then about 1.5× slower than the table above:
+//!
+//! | material | one edge at a time | four lanes | ratio |
+//! |---|---:|---:|---:|
+//! | hard | 589–681 µs | 396–437 µs | 1.5× |
+//! | compliant and damped | 1,093–1,317 µs | 514–574 µs | 2.2× |
+//!
+//! The lanes load each particle's `x, y` as one 16-byte load (two unpacks interleave four
+//! particles) and `z` alone, and store the same way. An earlier form, measured against 436 µs
+//! and not kept, gathered a colour 32 edges at a time into one array per component first: it
+//! took 547–600 µs, the gather and scatter costing more than the vector arithmetic saved. The
+//! lane code also has to be inlined into its loop: as a function (a `target_feature` function
+//! cannot be `inline(always)`) it returned its lanes through the stack and gained nothing.
+//!
+//! In scenes, 2 threads, A/B in one session: the 128 × 128 drape at 40 × 1 steps in 20.6 ms a
+//! frame against 26.5; with `tether` at 640 × 1 (both of the benchmark issue's strain bounds)
+//! 327 against 382 ms; `scenes/sail.toml` (soft in compression) 3.0 against 3.8 ms.
+
 //! ## Blocks: one edge at a time, or a particle's star at once
 //!
 //! `blocks` chooses what one Gauss-Seidel step solves. `"edges"` (the default): one edge, as
@@ -207,6 +226,7 @@ pub mod chebyshev;
 pub mod distance;
 pub mod group;
 pub mod hierarchy;
+mod lanes;
 pub mod multigrid;
 pub mod newton;
 pub mod star;

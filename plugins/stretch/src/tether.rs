@@ -123,6 +123,9 @@ pub fn k_nearest_sources(
     found
 }
 
+/// `|x − p|² < len² (1 − 1e-9)`: the tether is slack, whatever the rounding of `|x − p| − len`.
+const SLACK_BY_MARGIN: f64 = 1.0 - 1e-9;
+
 /// One tether projection: particle `x` (inverse mass `w`) toward pin `p`, length `len`.
 /// Returns the particle's displacement and `Δλ`, or `None` when the tether is slack, the
 /// particle sits on the pin, or the particle cannot move.
@@ -137,6 +140,11 @@ pub fn project_tether(
     h: f64,
 ) -> Option<(DVec3, f64)> {
     let d = x - p;
+    // Slack by a margin a million times the rounding of the test below, which would say so too:
+    // the common case decided without a square root, with the same results.
+    if d.length_squared() < len * len * SLACK_BY_MARGIN {
+        return None;
+    }
     let dist = d.length();
     let c = dist - len;
     if c <= 0.0 || w <= 0.0 || dist.is_nan() || dist <= 1e-12 {
@@ -356,5 +364,41 @@ mod tests {
         assert!(project_tether(x, 0.0, p, 1.5, 0.0, 0.0, 0.01).is_none());
         // On the pin: no direction, no NaN.
         assert!(project_tether(p, 1.0, p, 0.0, 0.0, 0.0, 0.01).is_none());
+    }
+
+    /// The tether step as it was before the slack test on squared lengths: the reference that
+    /// test must not change.
+    fn without_square_test(x: DVec3, w: f64, p: DVec3, len: f64) -> Option<(DVec3, f64)> {
+        let d = x - p;
+        let dist = d.length();
+        let c = dist - len;
+        if c <= 0.0 || w <= 0.0 || dist.is_nan() || dist <= 1e-12 {
+            return None;
+        }
+        let dl = nucleus_sdk::xpbd::delta_lambda(c, w, 1e-7, 0.0, 0.01);
+        Some((d / dist * (w * dl), dl))
+    }
+
+    #[test]
+    fn the_slack_test_on_squares_changes_no_bit() {
+        let mut rng = nucleus_sdk::testing::Rng(3);
+        let p = DVec3::new(0.1, -0.2, 0.3);
+        for k in 0..100_000 {
+            let x = p + rng.unit() * rng.range(0.5, 2.0);
+            let dist = (x - p).length();
+            // Lengths within a few roundings of the distance, and farther off either way.
+            let len = match k % 4 {
+                0 => dist,
+                1 => dist * (1.0 + rng.int(8) as f64 * f64::EPSILON),
+                2 => dist * (1.0 + rng.range(-1e-8, 1e-8)),
+                _ => dist * rng.range(0.5, 1.5),
+            };
+            let got = project_tether(x, 1.0, p, len, 1e-7, 0.0, 0.01);
+            let want = without_square_test(x, 1.0, p, len);
+            let bits = |r: Option<(DVec3, f64)>| {
+                r.map(|(d, l)| [d.x.to_bits(), d.y.to_bits(), d.z.to_bits(), l.to_bits()])
+            };
+            assert_eq!(bits(got), bits(want), "x {x}, len {len}");
+        }
     }
 }
