@@ -346,8 +346,20 @@ fn sig(x: f64) -> String {
     }
 }
 
-/// Runs a case, prints its `STRESS |` line and asserts every check.
+/// Runs a case and asserts every check ([`check_all`] for one case).
 fn check(case: Case) {
+    check_all([case]);
+}
+
+/// Runs every case, printing each one's `STRESS |` line, then asserts every check of every
+/// case: a failing case does not hide the rows of the cases after it.
+fn check_all(cases: impl IntoIterator<Item = Case>) {
+    let failures: Vec<String> = cases.into_iter().filter_map(run_case).collect();
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// Runs a case and prints its `STRESS |` line. Returns what failed, after the case's name.
+fn run_case(case: Case) -> Option<String> {
     let o = simulate(&case);
     let mut failures = Vec::new();
     if let Some(e) = &o.error {
@@ -409,12 +421,7 @@ fn check(case: Case) {
         o.steps,
         o.seconds
     );
-    assert!(
-        failures.is_empty(),
-        "{}: {}",
-        case.name,
-        failures.join("; ")
-    );
+    (!failures.is_empty()).then(|| format!("{}: {}", case.name, failures.join("; ")))
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1914,10 +1921,13 @@ fn the_closest_point_on_a_triangle_is_never_beaten_by_sampling() {
 /// Checks `scene` (a `stretch_newton` cloth) with the energy conserved and the default speed
 /// bound, reporting the group's residual.
 fn check_newton_energy(name: &'static str, scene: String) {
-    check(
-        Case::new(name, scene, Energy::Conserved { from_frame: 0 }, WHIP)
-            .last(|sim| residual_figure(sim, "stretch_newton")),
-    );
+    check(newton_energy_case(name, scene));
+}
+
+/// The case [`check_newton_energy`] checks.
+fn newton_energy_case(name: &'static str, scene: String) -> Case {
+    Case::new(name, scene, Energy::Conserved { from_frame: 0 }, WHIP)
+        .last(|sim| residual_figure(sim, "stretch_newton"))
 }
 
 /// A 1 m cloth of `n × n` vertices pinned at the corners of one edge, its edges solved by
@@ -2006,35 +2016,36 @@ fn newton_stretch_with_exact_solves_or_softer_springs_never_gains_energy() {
         "compression_compliance = 1e-8 }",
         "compression_compliance = 1e-8, cg_iterations = 40, cg_tolerance = 1e-9 }",
     );
-    for (name, scene) in [
-        (
-            "stretch_newton, 8 exact passes (CG to 1e-9), 12 x 12 cloth, compliance 1e-8",
-            exact,
-        ),
-        (
-            "stretch_newton, 1 pass, 12 x 12 cloth, compliance 1e-5",
-            newton_cloth(12, 60.0, 2, 1, 60, 1e-5, ""),
-        ),
-        (
-            "stretch_newton, 1,000 passes, 8 x 8 cloth, compliance 1e-8",
-            newton_cloth(8, 60.0, 2, 1000, 5, 1e-8, ""),
-        ),
-    ] {
-        check_newton_energy(name, scene);
-    }
+    check_all(
+        [
+            (
+                "stretch_newton, 8 exact passes (CG to 1e-9), 12 x 12 cloth, compliance 1e-8",
+                exact,
+            ),
+            (
+                "stretch_newton, 1 pass, 12 x 12 cloth, compliance 1e-5",
+                newton_cloth(12, 60.0, 2, 1, 60, 1e-5, ""),
+            ),
+            (
+                "stretch_newton, 1,000 passes, 8 x 8 cloth, compliance 1e-8",
+                newton_cloth(8, 60.0, 2, 1000, 5, 1e-8, ""),
+            ),
+        ]
+        .map(|(name, scene)| newton_energy_case(name, scene)),
+    );
 }
 
 /// A cloth thrown at 1e4 m/s past its pins, and one whose hem is 1e6 times heavier than the
 /// rest: finite, no energy gained, no particle faster than the bound.
 #[test]
 fn newton_stretch_at_1e4_m_s_and_mass_ratio_1e6_stays_bounded() {
-    check(Case::new(
+    let thrown = Case::new(
         "stretch_newton, 16 x 16 cloth thrown at 1e4 m/s, 2 x 2",
         newton_cloth(16, 60.0, 2, 2, 10, 1e-8, "velocity = [0.0, -10000.0, 0.0]"),
         Energy::Conserved { from_frame: 0 },
         WHIP,
-    ));
-    check(Case::new(
+    );
+    let heavy_hem = Case::new(
         "stretch_newton, 16 x 16 cloth, hem 1e6 times heavier, 2 x 2",
         newton_cloth(
             16,
@@ -2047,14 +2058,15 @@ fn newton_stretch_at_1e4_m_s_and_mass_ratio_1e6_stays_bounded() {
         ),
         Energy::Conserved { from_frame: 0 },
         Speed::Energy,
-    ));
+    );
+    check_all([thrown, heavy_hem]);
 }
 
 /// The stiffest springs the kind accepts (1e-15 m/N) and one substep of 1 s stay finite and
 /// within the speed bound; their energy is not checked here (see the ignored test below).
 #[test]
 fn newton_stretch_at_the_least_compliance_and_1_s_substeps_stays_finite() {
-    for (name, scene) in [
+    let cases = [
         (
             "stretch_newton, compliance 1e-15, 16 x 16 cloth, 2 x 2",
             newton_cloth(16, 60.0, 2, 2, 30, 1e-15, ""),
@@ -2063,17 +2075,17 @@ fn newton_stretch_at_the_least_compliance_and_1_s_substeps_stays_finite() {
             "h = 1 s, 10 passes, 8 x 8 cloth (stretch_newton)",
             newton_cloth(8, 1.0, 1, 10, 30, 1e-8, ""),
         ),
-    ] {
-        check(
-            Case::new(
-                name,
-                scene,
-                Energy::Source("not checked: see the ignored test"),
-                WHIP,
-            )
-            .last(|sim| residual_figure(sim, "stretch_newton")),
-        );
-    }
+    ]
+    .map(|(name, scene)| {
+        Case::new(
+            name,
+            scene,
+            Energy::Source("not checked: see the ignored test"),
+            WHIP,
+        )
+        .last(|sim| residual_figure(sim, "stretch_newton"))
+    });
+    check_all(cases);
 }
 
 /// The least compliance at the energy check: it gains energy (unconverged substeps, as above).
