@@ -14,7 +14,7 @@ use std::time::Duration;
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
 use nucleus_core::{Registry, Simulation};
-use nucleus_sdk::SolveContext;
+use nucleus_sdk::testing::CoreState;
 
 fn scene(constraint: &str) -> Simulation {
     let text = format!(
@@ -59,7 +59,7 @@ fn passes(c: &mut Criterion) {
         let mut sim = scene(constraint);
         let triangles = sim.objects[0].triangles.len() as u64;
         // Inflated by 1 % with a ripple, so every step does real work.
-        let mut x: Vec<[f64; 3]> = sim
+        let x: Vec<[f64; 3]> = sim
             .particles
             .x
             .iter()
@@ -68,21 +68,16 @@ fn passes(c: &mut Criterion) {
                 [s * p[0], s * p[1], s * p[2]]
             })
             .collect();
-        let x0 = sim.particles.x.clone();
-        let mut v = vec![[0.0; 3]; x.len()];
+        // The core's state at the start of a substep from the rest shape (`x0`), the
+        // objects and flags as the core built them.
         let p = &sim.particles;
-        let mut ctx = SolveContext {
-            substeps: 10,
-            ..SolveContext::new(
-                &mut x,
-                &mut v,
-                &x0,
-                &p.inv_mass,
-                &p.object,
-                &p.flags,
-                1.0 / 600.0,
-            )
+        let mut state = CoreState {
+            x0: p.x.clone(),
+            object: p.object.clone(),
+            flags: p.flags.clone(),
+            ..CoreState::at_rest(x, p.inv_mass.clone(), 1.0 / 600.0)
         };
+        let mut ctx = state.ctx();
         let group = &mut sim.groups[0].group;
         for stage in [group.force(&mut ctx), group.begin_substep(&mut ctx)] {
             if let Err(e) = stage.into_result() {

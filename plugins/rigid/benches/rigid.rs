@@ -15,7 +15,7 @@ use glam::{DQuat, DVec3};
 use nucleus_sdk::prelude::*;
 use nucleus_sdk::GroupBox;
 
-use nucleus_sdk::testing::Rng;
+use nucleus_sdk::testing::{CoreState, Rng};
 
 struct Scene {
     rest: Vec<[f64; 3]>,
@@ -82,9 +82,13 @@ fn project_pass(c: &mut Criterion) {
         let s = scene(per_body, bodies);
         let mut rng = Rng(7);
         let states = [turned(&s, &mut rng, 0.0), turned(&s, &mut rng, 0.01)];
-        let mut v = vec![[0.0; 3]; s.rest.len()];
-        let object: Vec<u32> = (0..s.rest.len() as u32).map(|i| i / per_body).collect();
-        let flags = vec![0u32; s.rest.len()];
+        // The core's state at the start of a substep from the rest shape (`x0`), one object
+        // per body; each pass from one of the two turned states.
+        let start = CoreState {
+            object: (0..s.rest.len() as u32).map(|i| i / per_body).collect(),
+            gravity: [0.0, -9.81, 0.0],
+            ..CoreState::at_rest(s.rest.clone(), s.inv_mass.clone(), 1.0 / 600.0)
+        };
         for (variant, params) in [("hard", "{}"), ("compliant", r#"{"compliance": 1e-4}"#)] {
             let mut g = group(&s, params);
             bench.throughput(Throughput::Elements(g.constraint_count()));
@@ -93,24 +97,12 @@ fn project_pass(c: &mut Criterion) {
                 b.iter_batched_ref(
                     || {
                         which ^= 1;
-                        states[which].clone()
+                        CoreState {
+                            x: states[which].clone(),
+                            ..start.clone()
+                        }
                     },
-                    |x| {
-                        let mut ctx = SolveContext {
-                            gravity: [0.0, -9.81, 0.0],
-                            substeps: 10,
-                            ..SolveContext::new(
-                                x,
-                                &mut v,
-                                &s.rest,
-                                &s.inv_mass,
-                                &object,
-                                &flags,
-                                1.0 / 600.0,
-                            )
-                        };
-                        black_box(g.project(black_box(&mut ctx))).is_ok()
-                    },
+                    |state| black_box(g.project(black_box(&mut state.ctx()))).is_ok(),
                     BatchSize::LargeInput,
                 )
             });
