@@ -18,10 +18,7 @@
 use glam::DVec3;
 use nucleus_sdk::team::SharedArray;
 
-use crate::distance::{
-    project_distance_hard, project_distance_with, Correction, XpbdTerms, MIN_LENGTH,
-    START_DIRECTION_MIN_COS,
-};
+use crate::distance::{project_distance_hard, project_distance_with, Correction, XpbdTerms};
 
 /// Whether this processor runs the four-lane kernel (checked once by the standard library, then
 /// cached by it).
@@ -182,6 +179,7 @@ mod avx2 {
     use std::arch::x86_64::*;
 
     use super::*;
+    use crate::distance::{MIN_LENGTH, START_DIRECTION_MIN_COS};
 
     /// Three coordinates of four particles, one register each.
     struct Lanes3 {
