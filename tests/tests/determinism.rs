@@ -193,6 +193,37 @@ objects = ["cloth"]
 }
 
 #[test]
+fn a_stretch_hierarchy_on_one_and_two_threads_gives_bit_identical_frames() {
+    // 96 × 96: the finest coarse level drops about 6,900 particles, whose prolongation is split
+    // over the team (`PARALLEL_MIN_DROPPED`).
+    let dir = temp_dir("hierarchy-scene");
+    let scene = dir.join("drape_hierarchy.toml");
+    let text = drape_text(
+        96,
+        4,
+        4,
+        1,
+        r#"
+[[constraints]]
+kind = "stretch"
+objects = ["cloth"]
+[[constraints]]
+kind = "stretch_hierarchy"
+objects = ["cloth"]
+params = { straight_lengths = true }
+"#,
+    );
+    std::fs::write(&scene, text).unwrap();
+    let scene = scene.to_str().unwrap();
+    let a = run_with("hierarchy-threads-1", scene, "1", &[]);
+    let b = run_with("hierarchy-threads-2", scene, "2", &[]);
+    assert_same_frames(&a, &b, 4, "1 and 2 threads");
+    let first = std::fs::read(a.join("frame_0000.obj")).unwrap();
+    let last = std::fs::read(a.join("frame_0004.obj")).unwrap();
+    assert!(first != last, "the cloth must have moved");
+}
+
+#[test]
 fn stars_on_one_and_two_threads_give_bit_identical_frames() {
     // 96 × 96 with a star at every particle (`blocks = "stars"`): colours of ~700 stars, split
     // over the team; then a cloth with a column 1,000 times lighter.
