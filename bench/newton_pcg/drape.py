@@ -1,5 +1,58 @@
-"""What the three drape experiments share: the peers' strain metrics, frame by frame."""
+"""What the drape experiments share: the scene's grid, the peers' strain metrics frame by frame,
+and plain Gauss-Seidel (PBD) passes over the edges."""
 import numpy as np
+
+
+def drape_grid(N):
+    """The peers' drape at N x N: vertex (i, j) at (j h, 0, i h), index i N + j, h = 1/(N - 1);
+    edges row by row, each vertex's (i,j)-(i,j+1), (i,j)-(i+1,j), then the diagonal
+    (i,j)-(i+1,j+1). Returns the positions X, the edges E (ne x 2) and `struct`, True for the
+    grid-aligned (structural) edges."""
+    h = 1.0 / (N - 1)
+    X = np.array([(j * h, 0.0, i * h) for i in range(N) for j in range(N)])
+    E, struct = [], []
+    for i in range(N):
+        for j in range(N):
+            if j + 1 < N:
+                E.append((i * N + j, i * N + j + 1))
+                struct.append(True)
+            if i + 1 < N:
+                E.append((i * N + j, (i + 1) * N + j))
+                struct.append(True)
+            if i + 1 < N and j + 1 < N:
+                E.append((i * N + j, (i + 1) * N + j + 1))
+                struct.append(False)
+    return X, np.array(E), np.array(struct)
+
+
+def edge_colour_sets(E, nv):
+    """Greedy colouring of the edges in order: the edges of one colour share no particle."""
+    used = [set() for _ in range(nv)]
+    colour = np.zeros(len(E), int)
+    for e, (i, j) in enumerate(E):
+        c = 0
+        while c in used[i] or c in used[j]:
+            c += 1
+        colour[e] = c
+        used[i].add(c)
+        used[j].add(c)
+    return [np.flatnonzero(colour == c) for c in range(colour.max() + 1)]
+
+
+def pbd_passes(x, passes, colour_sets, E, rest, w):
+    """`passes` hard PBD passes over the edges `E` (rest lengths `rest`, inverse masses `w`),
+    colour by colour (a colour's edges at once). Moves `x` in place and returns it."""
+    ea, eb = E[:, 0], E[:, 1]
+    for _ in range(passes):
+        for c in colour_sets:
+            i, j = ea[c], eb[c]
+            d = x[i] - x[j]
+            l = np.linalg.norm(d, axis=1)
+            wi, wj = w[i], w[j]
+            s = (l - rest[c]) / np.maximum(wi + wj, 1e-300) / np.maximum(l, 1e-300)
+            x[i] -= (wi * s)[:, None] * d
+            x[j] += (wj * s)[:, None] * d
+    return x
 
 
 class StrainLog:

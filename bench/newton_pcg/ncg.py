@@ -15,25 +15,15 @@ frame (each one gather and one scatter over the edges: at least the cost of one 
 pass).
 """
 import numpy as np, sys, time, argparse
-from drape import StrainLog
+from drape import StrainLog, drape_grid
 p = argparse.ArgumentParser()
 p.add_argument('N', type=int); p.add_argument('S', type=int); p.add_argument('newton', type=int)
 p.add_argument('cg', type=int); p.add_argument('--warm', type=float, default=0.0)
 p.add_argument('--frames', type=int, default=120); p.add_argument('--gs', type=int, default=0)
 p.add_argument('--trace', action='store_true')
 a = p.parse_args()
-N=a.N; h=1.0/(N-1)
-X = np.zeros((N*N,3))
-for i in range(N):
-    for j in range(N):
-        X[i*N+j] = (j*h, 0.0, i*h)
-E=[]; S_=[]
-for i in range(N):
-    for j in range(N):
-        if j+1<N: E.append((i*N+j, i*N+j+1)); S_.append(True)
-        if i+1<N: E.append((i*N+j, (i+1)*N+j)); S_.append(True)
-        if i+1<N and j+1<N: E.append((i*N+j, (i+1)*N+j+1)); S_.append(False)
-E=np.array(E); struct=np.array(S_)
+N=a.N
+X, E, struct = drape_grid(N)
 ea, eb = E[:,0], E[:,1]
 L = np.linalg.norm(X[ea]-X[eb],axis=1)
 w = np.full(N*N, float(N*N)); w[0]=0; w[N-1]=0

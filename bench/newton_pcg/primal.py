@@ -56,7 +56,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spl
 
-from drape import StrainLog
+from drape import StrainLog, drape_grid, edge_colour_sets, pbd_passes
 
 p = argparse.ArgumentParser()
 p.add_argument("N", type=int)
@@ -109,22 +109,7 @@ p.add_argument("--cost", action="store_true",
                help="time a Hessian product, a V-cycle and the AMG setup after the run")
 a = p.parse_args()
 N = a.N
-h = 1.0 / (N - 1)
-X = np.array([(j * h, 0.0, i * h) for i in range(N) for j in range(N)])
-E, struct = [], []
-for i in range(N):
-    for j in range(N):
-        if j + 1 < N:
-            E.append((i * N + j, i * N + j + 1))
-            struct.append(True)
-        if i + 1 < N:
-            E.append((i * N + j, (i + 1) * N + j))
-            struct.append(True)
-        if i + 1 < N and j + 1 < N:
-            E.append((i * N + j, (i + 1) * N + j + 1))
-            struct.append(False)
-E = np.array(E)
-struct = np.array(struct)
+X, E, struct = drape_grid(N)
 ea, eb = E[:, 0], E[:, 1]
 L = np.linalg.norm(X[ea] - X[eb], axis=1)
 nv = N * N
@@ -429,38 +414,10 @@ def gradient_and_hessian(x, xt):
     return grad.ravel(), H
 
 
-def edge_colour_sets():
-    """Greedy colouring of the edges in order: the edges of one colour share no particle."""
-    used = [set() for _ in range(nv)]
-    colour = np.zeros(len(E), int)
-    for e, (i, j) in enumerate(E):
-        c = 0
-        while c in used[i] or c in used[j]:
-            c += 1
-        colour[e] = c
-        used[i].add(c)
-        used[j].add(c)
-    return [np.flatnonzero(colour == c) for c in range(colour.max() + 1)]
-
-
 W = np.where(pinned, 0.0, 1.0 / mass)
 
 
-def pbd_passes(x, passes):
-    """`passes` hard PBD passes over the edges, colour by colour (a colour's edges at once)."""
-    for _ in range(passes):
-        for c in colour_sets:
-            i, j = ea[c], eb[c]
-            d = x[i] - x[j]
-            l = np.linalg.norm(d, axis=1)
-            wi, wj = W[i], W[j]
-            s = (l - L[c]) / np.maximum(wi + wj, 1e-300) / np.maximum(l, 1e-300)
-            x[i] -= (wi * s)[:, None] * d
-            x[j] += (wj * s)[:, None] * d
-    return x
-
-
-colour_sets = edge_colour_sets() if a.pbd_start else []
+colour_sets = edge_colour_sets(E, nv) if a.pbd_start else []
 x = X.copy()
 v = np.zeros_like(x)
 log = StrainLog(ea, eb, L, struct)
@@ -480,7 +437,7 @@ for fr in range(a.frames):
         xo = x.copy()
         v[free] += dt * g
         xt = x + dt * v * free[:, None]
-        x = pbd_passes(xt.copy(), a.pbd_start)
+        x = pbd_passes(xt.copy(), a.pbd_start, colour_sets, E, L, W)
         for it in range(a.newton):
             grad, H = gradient_and_hessian(x, xt)
             Hf = H[free_dofs][:, free_dofs]

@@ -29,7 +29,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spl
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "newton_pcg"))
-from drape import StrainLog  # noqa: E402
+from drape import StrainLog, drape_grid, edge_colour_sets, pbd_passes  # noqa: E402
 
 p = argparse.ArgumentParser()
 p.add_argument("N", type=int)
@@ -43,22 +43,7 @@ p.add_argument("--trace", action="store_true")
 p.add_argument("--cost", action="store_true")
 a = p.parse_args()
 N = a.N
-hs = 1.0 / (N - 1)
-X = np.array([(j * hs, 0.0, i * hs) for i in range(N) for j in range(N)])
-E, struct = [], []
-for i in range(N):
-    for j in range(N):
-        if j + 1 < N:
-            E.append((i * N + j, i * N + j + 1))
-            struct.append(True)
-        if i + 1 < N:
-            E.append((i * N + j, (i + 1) * N + j))
-            struct.append(True)
-        if i + 1 < N and j + 1 < N:
-            E.append((i * N + j, (i + 1) * N + j + 1))
-            struct.append(False)
-E = np.array(E)
-struct = np.array(struct)
+X, E, struct = drape_grid(N)
 ea, eb = E[:, 0], E[:, 1]
 L = np.linalg.norm(X[ea] - X[eb], axis=1)
 nv = N * N
@@ -85,33 +70,7 @@ print(f"factor nnz L+U {lu.L.nnz + lu.U.nnz}, factorization {t_fact * 1e3:.0f} m
 W = np.where(pinned, 0.0, 1.0 / mass)
 
 
-def edge_colour_sets():
-    used = [set() for _ in range(nv)]
-    colour = np.zeros(ne, int)
-    for e, (i, j) in enumerate(E):
-        c = 0
-        while c in used[i] or c in used[j]:
-            c += 1
-        colour[e] = c
-        used[i].add(c)
-        used[j].add(c)
-    return [np.flatnonzero(colour == c) for c in range(colour.max() + 1)]
-
-
-colour_sets = edge_colour_sets() if a.pbd_start else []
-
-
-def pbd_passes(x, passes):
-    for _ in range(passes):
-        for c in colour_sets:
-            i, j = ea[c], eb[c]
-            d = x[i] - x[j]
-            l = np.linalg.norm(d, axis=1)
-            wi, wj = W[i], W[j]
-            s = (l - L[c]) / np.maximum(wi + wj, 1e-300) / np.maximum(l, 1e-300)
-            x[i] -= (wi * s)[:, None] * d
-            x[j] += (wj * s)[:, None] * d
-    return x
+colour_sets = edge_colour_sets(E, nv) if a.pbd_start else []
 
 
 def energy(x, v):
@@ -139,7 +98,7 @@ for fr in range(a.frames):
         v[free] += dt * g
         xt = x + dt * v * free[:, None]
         xp = xt[pinned]
-        y = pbd_passes(xt.copy(), a.pbd_start)
+        y = pbd_passes(xt.copy(), a.pbd_start, colour_sets, E, L, W)
         prev, omega = y.copy(), 1.0
         for it in range(a.iterations):
             dv = y[ea] - y[eb]
@@ -165,7 +124,8 @@ e = np.array(energies)
 rise = (e - np.minimum.accumulate(e)).max()
 print(f"N={N} S={a.S} iterations={a.iterations} k={k:g} cheb={a.chebyshev} "
       f"pbd={a.pbd_start}: max {strain_max:.3f}% rms {strain_rms:.4f}%, mean height after "
-      f"15 / 30 frames {heights[min(14, len(heights) - 1)]:.3f} / {heights[min(29, len(heights) - 1)]:.3f} m, energy end "
+      f"{min(15, len(heights))} / {min(30, len(heights))} frames "
+      f"{heights[min(14, len(heights) - 1)]:.3f} / {heights[min(29, len(heights) - 1)]:.3f} m, energy end "
       f"{e[-1]:.3f} J, largest rise {rise:.3f} J at frame {np.argmax(e - np.minimum.accumulate(e))}")
 if a.cost:
     r = np.asfortranarray(np.random.rand(len(fidx), 3))
