@@ -35,6 +35,21 @@ fn assert_same_frames(a: &std::path::Path, b: &std::path::Path, frames: u32, wha
     }
 }
 
+/// Writes `text` as a scene, runs it for its 4 frames on 1 and on 2 threads, and asserts that
+/// every frame is byte for byte the same and that the cloth moved (so the comparison means
+/// something).
+fn assert_one_and_two_threads_agree(tag: &str, text: &str) {
+    let scene = temp_dir(&format!("{tag}-scene")).join("scene.toml");
+    std::fs::write(&scene, text).unwrap();
+    let scene = scene.to_str().unwrap();
+    let a = run_with(&format!("{tag}-threads-1"), scene, "1", &[]);
+    let b = run_with(&format!("{tag}-threads-2"), scene, "2", &[]);
+    assert_same_frames(&a, &b, 4, &format!("1 and 2 threads ({tag})"));
+    let first = std::fs::read(a.join("frame_0000.obj")).unwrap();
+    let last = std::fs::read(a.join("frame_0004.obj")).unwrap();
+    assert!(first != last, "the cloth must have moved ({tag})");
+}
+
 fn stats_without_wall(dir: &std::path::Path) -> Vec<String> {
     let text = std::fs::read_to_string(dir.join("stats.csv")).unwrap();
     let wall = text
@@ -166,8 +181,6 @@ params = { compliance = 1e-7 }
 #[test]
 fn tethers_on_one_and_two_threads_give_bit_identical_frames() {
     // 96 × 96 with two tethers per particle: 18,430 tethers, a pass split over the team.
-    let dir = temp_dir("tether-scene");
-    let scene = dir.join("drape_tether.toml");
     let text = drape_text(
         96,
         4,
@@ -182,22 +195,13 @@ kind = "tether"
 objects = ["cloth"]
 "#,
     );
-    std::fs::write(&scene, text).unwrap();
-    let scene = scene.to_str().unwrap();
-    let a = run_with("tether-threads-1", scene, "1", &[]);
-    let b = run_with("tether-threads-2", scene, "2", &[]);
-    assert_same_frames(&a, &b, 4, "1 and 2 threads");
-    let first = std::fs::read(a.join("frame_0000.obj")).unwrap();
-    let last = std::fs::read(a.join("frame_0004.obj")).unwrap();
-    assert!(first != last, "the cloth must have moved");
+    assert_one_and_two_threads_agree("tether", &text);
 }
 
 #[test]
 fn a_stretch_hierarchy_on_one_and_two_threads_gives_bit_identical_frames() {
     // 96 × 96: the finest coarse level drops about 6,900 particles, whose prolongation is split
     // over the team (`PARALLEL_MIN_DROPPED`).
-    let dir = temp_dir("hierarchy-scene");
-    let scene = dir.join("drape_hierarchy.toml");
     let text = drape_text(
         96,
         4,
@@ -213,14 +217,7 @@ objects = ["cloth"]
 params = { straight_lengths = true }
 "#,
     );
-    std::fs::write(&scene, text).unwrap();
-    let scene = scene.to_str().unwrap();
-    let a = run_with("hierarchy-threads-1", scene, "1", &[]);
-    let b = run_with("hierarchy-threads-2", scene, "2", &[]);
-    assert_same_frames(&a, &b, 4, "1 and 2 threads");
-    let first = std::fs::read(a.join("frame_0000.obj")).unwrap();
-    let last = std::fs::read(a.join("frame_0004.obj")).unwrap();
-    assert!(first != last, "the cloth must have moved");
+    assert_one_and_two_threads_agree("hierarchy", &text);
 }
 
 #[test]
@@ -256,17 +253,8 @@ plane = "xz"
 kind = "stretch"
 params = { blocks = "stars" }
 "#;
-    for (tag, text) in [("stars", stars.as_str()), ("light-column", light_column)] {
-        let scene = temp_dir(&format!("{tag}-scene")).join("scene.toml");
-        std::fs::write(&scene, text).unwrap();
-        let scene = scene.to_str().unwrap();
-        let a = run_with(&format!("{tag}-threads-1"), scene, "1", &[]);
-        let b = run_with(&format!("{tag}-threads-2"), scene, "2", &[]);
-        assert_same_frames(&a, &b, 4, &format!("1 and 2 threads ({tag})"));
-        let first = std::fs::read(a.join("frame_0000.obj")).unwrap();
-        let last = std::fs::read(a.join("frame_0004.obj")).unwrap();
-        assert!(first != last, "the cloth must have moved ({tag})");
-    }
+    assert_one_and_two_threads_agree("stars", &stars);
+    assert_one_and_two_threads_agree("light-column", light_column);
 }
 
 #[test]
