@@ -497,6 +497,60 @@ mod tests {
         lambda: Vec<f64>,
     }
 
+    /// A hard colour kernel's signature: [`project_edges_hard_one_by_one`] or
+    /// [`project_colour_hard`].
+    type HardKernel = unsafe fn(SharedArray<DVec3>, &[DVec3], &[f64], &[[u32; 2]], &[f64]);
+
+    /// A compliant colour kernel's signature: [`project_edges_compliant_one_by_one`] or
+    /// [`project_colour_compliant`].
+    type CompliantKernel = unsafe fn(
+        SharedArray<DVec3>,
+        &[DVec3],
+        &[f64],
+        &[[u32; 2]],
+        &[f64],
+        &mut [f64],
+        &XpbdTerms,
+    );
+
+    impl Colour {
+        /// The positions after `kernel` projects every edge once, from a copy of `x`.
+        fn hard(&self, kernel: HardKernel) -> Vec<DVec3> {
+            let mut x = self.x.clone();
+            // SAFETY: every index is below 2 × 4,003, the number of particles, no two edges
+            // share a particle, and one thread owns the arrays.
+            unsafe {
+                kernel(
+                    SharedArray::new(&mut x),
+                    &self.x0,
+                    &self.w,
+                    &self.ids,
+                    &self.rest,
+                )
+            };
+            x
+        }
+
+        /// The positions and multipliers after `kernel` projects every edge once, from copies
+        /// of `x` and `lambda`.
+        fn compliant(&self, kernel: CompliantKernel, terms: &XpbdTerms) -> (Vec<DVec3>, Vec<f64>) {
+            let (mut x, mut lambda) = (self.x.clone(), self.lambda.clone());
+            // SAFETY: as in `hard`.
+            unsafe {
+                kernel(
+                    SharedArray::new(&mut x),
+                    &self.x0,
+                    &self.w,
+                    &self.ids,
+                    &self.rest,
+                    &mut lambda,
+                    terms,
+                )
+            };
+            (x, lambda)
+        }
+    }
+
     /// 4,003 edges pairing 8,006 particles (one colour: no particle shared, and a tail of 3 for
     /// the one-edge kernel), with random positions, start positions, inverse masses and
     /// multipliers, and every case the kernels treat apart: coincident and non-finite
@@ -570,19 +624,8 @@ mod tests {
         let mut rng = Rng(7);
         for _ in 0..3 {
             let c = colour(&mut rng);
-            let (mut one, mut four) = (c.x.clone(), c.x.clone());
-            // SAFETY: every index is below 2 × 4,003, the number of particles, and one thread
-            // owns the arrays.
-            unsafe {
-                project_edges_hard_one_by_one(
-                    SharedArray::new(&mut one),
-                    &c.x0,
-                    &c.w,
-                    &c.ids,
-                    &c.rest,
-                );
-                project_colour_hard(SharedArray::new(&mut four), &c.x0, &c.w, &c.ids, &c.rest);
-            }
+            let one = c.hard(project_edges_hard_one_by_one);
+            let four = c.hard(project_colour_hard);
             assert_ne!(bits(&one), bits(&c.x), "the pass moved particles");
             assert_eq!(bits(&one), bits(&four));
         }
@@ -615,29 +658,8 @@ mod tests {
         ] {
             let terms = material.terms(h);
             let c = colour(&mut rng);
-            let (mut one, mut four) = (c.x.clone(), c.x.clone());
-            let (mut lambda_one, mut lambda_four) = (c.lambda.clone(), c.lambda.clone());
-            // SAFETY: as in the hard test.
-            unsafe {
-                project_edges_compliant_one_by_one(
-                    SharedArray::new(&mut one),
-                    &c.x0,
-                    &c.w,
-                    &c.ids,
-                    &c.rest,
-                    &mut lambda_one,
-                    &terms,
-                );
-                project_colour_compliant(
-                    SharedArray::new(&mut four),
-                    &c.x0,
-                    &c.w,
-                    &c.ids,
-                    &c.rest,
-                    &mut lambda_four,
-                    &terms,
-                );
-            }
+            let (one, lambda_one) = c.compliant(project_edges_compliant_one_by_one, &terms);
+            let (four, lambda_four) = c.compliant(project_colour_compliant, &terms);
             assert_ne!(bits(&one), bits(&c.x), "the pass moved particles");
             assert_eq!(bits(&one), bits(&four), "{material:?}");
             let lambda_bits = |l: &[f64]| l.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
