@@ -67,6 +67,7 @@
 #![warn(missing_docs)]
 
 pub mod abi;
+pub mod colour;
 pub mod group;
 pub mod params;
 pub mod team;

@@ -199,6 +199,36 @@ objects = ["cloth"]
 }
 
 #[test]
+fn bending_on_one_and_two_threads_gives_bit_identical_frames() {
+    // 64 × 64: about 12,000 hinges per bend group in colours of several hundred, and 24,000
+    // shear corners, each colour split over the team (`PARALLEL_MIN_CONSTRAINTS`).
+    let text = drape_text(
+        64,
+        4,
+        4,
+        1,
+        r#"
+[[constraints]]
+kind = "stretch"
+objects = ["cloth"]
+[[constraints]]
+kind = "bend"
+objects = ["cloth"]
+params = { compliance = 1e3 }
+[[constraints]]
+kind = "bend_isometric"
+objects = ["cloth"]
+params = { compliance = 1e4 }
+[[constraints]]
+kind = "shear"
+objects = ["cloth"]
+params = { compliance = 1e2 }
+"#,
+    );
+    assert_one_and_two_threads_agree("bend", &text);
+}
+
+#[test]
 fn a_stretch_hierarchy_on_one_and_two_threads_gives_bit_identical_frames() {
     // 96 × 96: the finest coarse level drops about 6,900 particles, whose prolongation is split
     // over the team (`PARALLEL_MIN_DROPPED`).

@@ -3,14 +3,19 @@
 //! [`crate::dihedral`] and [`crate::bergou2006_isometric`].
 
 use std::collections::BTreeMap;
+use std::ops::Range;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use glam::DVec3;
+use nucleus_sdk::colour::{colour_batches, greedy_colours, independent_sets_order};
 use nucleus_sdk::prelude::*;
+use nucleus_sdk::team::{span, SharedArray, TeamRef};
 use serde::{Deserialize, Serialize};
 
 use crate::angle::{edge_angle, project_edge_angle};
 use crate::bergou2006_isometric::{curvature_vector, isometric_weights, project_isometric};
 use crate::dihedral::{dihedral_angle, project_dihedral, wrap_angle};
+use crate::step::Correction;
 
 /// Which constraints a group holds; one per kind of this plugin.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -128,12 +133,16 @@ pub struct BendGroup {
     quad_weights: Vec<[f64; 4]>,
     /// Multiplier of each hinge accumulated over the passes of the substep.
     quad_lambda: Vec<f64>,
+    /// The hinges' colours, in order ([`colour_order`]).
+    quad_batches: Batches,
     /// Angles `[i, j, k]` at `j`, global particle indices.
     triples: Vec<[u32; 3]>,
     /// Rest angle of each (rad, in [0, π]).
     triple_rest: Vec<f64>,
     /// Multiplier of each.
     triple_lambda: Vec<f64>,
+    /// The angles' colours, in order.
+    triple_batches: Batches,
     /// Compliance α of every constraint (rad/(N·m)).
     compliance: f64,
     /// Constraints not built because their rest shape is degenerate.
@@ -182,32 +191,27 @@ fn curve_chains(pairs: &[EdgePairView]) -> Vec<[u32; 4]> {
 
 type EdgePairView = [u32; 3];
 
-/// Greedy colouring of constraints of `N` particles in their given order, then the order
-/// that lists them colour by colour (each colour in the given order). Constraints of one
-/// colour (below 64) share no particle, so consecutive constraints do not wait for each
-/// other's position writes; the last colour takes the overflow and may share particles.
-/// Deterministic; the projection stays plain sequential Gauss-Seidel over this order.
-fn independent_sets_order<const N: usize>(ids: &[[u32; N]], particles: usize) -> Vec<usize> {
-    const OVERFLOW: u32 = 64;
-    let mut used = vec![0u64; particles];
-    let colours: Vec<u32> = ids
-        .iter()
-        .map(|c| {
-            let taken = c.iter().fold(0u64, |m, &p| m | used[p as usize]);
-            if taken == u64::MAX {
-                return OVERFLOW;
-            }
-            let colour = (!taken).trailing_zeros();
-            for &p in c {
-                used[p as usize] |= 1 << colour;
-            }
-            colour
-        })
-        .collect();
-    let mut order: Vec<usize> = (0..ids.len()).collect();
-    order.sort_by_key(|&k| colours[k]);
-    order
+/// The order that lists constraints of `N` particles colour by colour (each colour in the
+/// given order), and its batches: consecutive runs of one colour, flagged `true` when its
+/// constraints share no particle (every colour but the overflow; see
+/// [`nucleus_sdk::colour`]). Deterministic; a pass over this order is plain sequential
+/// Gauss-Seidel, and each real colour may be split over threads with the same bits.
+fn colour_order<const N: usize>(ids: &[[u32; N]], particles: usize) -> (Vec<usize>, Batches) {
+    let colours = greedy_colours(ids.len(), particles, |k| {
+        ids[k].into_iter().map(|p| p as usize)
+    });
+    let order = independent_sets_order(&colours);
+    let batches = colour_batches(&colours, &order);
+    (order, batches)
 }
+
+/// Consecutive ranges of a group's constraints of one colour each, `true` when they share no
+/// particle (see [`colour_order`]).
+type Batches = Vec<(Range<usize>, bool)>;
+
+/// Colours of at least this many constraints are split over the host's thread team (as
+/// `stretch` does with its edges: below it, the team's hand-off costs more than it saves).
+const PARALLEL_MIN_CONSTRAINTS: usize = 256;
 
 fn gather<const N: usize>(x: &[DVec3], ids: &[u32; N]) -> [DVec3; N] {
     std::array::from_fn(|k| x[ids[k] as usize])
@@ -271,9 +275,11 @@ impl BendGroup {
             quad_rest: Vec::new(),
             quad_weights: Vec::new(),
             quad_lambda: Vec::new(),
+            quad_batches: Vec::new(),
             triples: Vec::new(),
             triple_rest: Vec::new(),
             triple_lambda: Vec::new(),
+            triple_batches: Vec::new(),
             compliance: params.compliance,
             dropped: 0,
             skipped: 0,
@@ -353,13 +359,15 @@ impl BendGroup {
             }
         }
 
-        let order = independent_sets_order(&group.quads, particles);
+        let (order, batches) = colour_order(&group.quads, particles);
+        group.quad_batches = batches;
         group.quads = order.iter().map(|&k| group.quads[k]).collect();
         group.quad_rest = order.iter().map(|&k| group.quad_rest[k]).collect();
         if quad_model == QuadModel::Isometric {
             group.quad_weights = order.iter().map(|&k| group.quad_weights[k]).collect();
         }
-        let order = independent_sets_order(&group.triples, particles);
+        let (order, batches) = colour_order(&group.triples, particles);
+        group.triple_batches = batches;
         group.triples = order.iter().map(|&k| group.triples[k]).collect();
         group.triple_rest = order.iter().map(|&k| group.triple_rest[k]).collect();
         group.quad_lambda = vec![0.0; group.quads.len()];
@@ -411,12 +419,65 @@ impl BendGroup {
     }
 }
 
-/// Adds `dx` to the particles `ids` of `x`.
-#[inline]
-fn scatter<const N: usize>(x: &mut [DVec3], ids: &[u32; N], dx: &[DVec3; N]) {
-    for k in 0..N {
-        x[ids[k] as usize] += dx[k];
+/// One constraint's XPBD step: `(k, positions, inverse masses, λ so far)` to its correction,
+/// `None` to skip it.
+type Step<'a, const N: usize> =
+    dyn Fn(usize, &[DVec3; N], &[f64; N], f64) -> Option<Correction<N>> + Sync + 'a;
+
+/// Projects the constraints `ids[k]` batch by batch, in order, each by `step`, accumulating
+/// its multiplier in `lambda[k]`; an independent batch of at least
+/// [`PARALLEL_MIN_CONSTRAINTS`] is split over `team` (see [`BendGroup::project`]). Returns
+/// how many were skipped. Every index must be below `x.len()` and `w.len()` (the caller has
+/// checked the group's largest index against the state).
+fn project_batches<const N: usize>(
+    team: TeamRef<'_>,
+    x: &mut [DVec3],
+    w: &[f64],
+    ids: &[[u32; N]],
+    lambda: &mut [f64],
+    batches: &[(Range<usize>, bool)],
+    step: &Step<'_, N>,
+) -> u64 {
+    assert!(lambda.len() == ids.len() && batches.last().is_none_or(|b| b.0.end <= ids.len()));
+    let (xs, lambdas) = (SharedArray::new(x), SharedArray::new(lambda));
+    let skipped = AtomicU64::new(0);
+    let run = |range: Range<usize>| {
+        let mut skip = 0;
+        for k in range {
+            let c = &ids[k];
+            let ws = c.map(|i| w[i as usize]);
+            // SAFETY: every index is in bounds (the caller's check), the constraint's particles
+            // are distinct, and within one part of an independent batch no other part writes or
+            // reads them; a batch that is not split runs on this thread alone. `k` is below
+            // `lambda.len()` (asserted) and belongs to this part only.
+            unsafe {
+                let pos = c.map(|i| *xs.at(i as usize));
+                let lambda = &mut *lambdas.at(k);
+                match step(k, &pos, &ws, *lambda) {
+                    Some(correction) => {
+                        for (&i, dx) in c.iter().zip(&correction.dx) {
+                            *xs.at(i as usize) += *dx;
+                        }
+                        *lambda += correction.delta_lambda;
+                    }
+                    None => skip += 1,
+                }
+            }
+        }
+        skipped.fetch_add(skip, Ordering::Relaxed);
+    };
+    let parts = team.parts();
+    for (range, independent) in batches {
+        if parts >= 2 && *independent && range.len() >= PARALLEL_MIN_CONSTRAINTS {
+            team.run(&|part| {
+                let s = span(part, parts, range.len());
+                run(range.start + s.start..range.start + s.end)
+            });
+        } else {
+            run(range.clone());
+        }
     }
+    skipped.into_inner()
 }
 
 impl ConstraintGroup for BendGroup {
@@ -435,69 +496,43 @@ impl ConstraintGroup for BendGroup {
         Ok(())
     }
 
-    /// One Gauss-Seidel pass: every hinge, then every angle, each in its batch order.
-    /// Deterministic, no allocation.
+    /// One Gauss-Seidel pass: every hinge, then every angle, colour by colour
+    /// ([`colour_order`]). A colour of at least [`PARALLEL_MIN_CONSTRAINTS`] constraints is
+    /// split into contiguous parts over the host's thread team (`ctx.team`): its constraints
+    /// share no particle, so each reads and writes only its own, and the bits are the same on
+    /// any thread count. Deterministic, no allocation.
     fn project(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
-        let h = ctx.substep_length()?;
+        let (h, team) = (ctx.substep_length()?, ctx.team);
         ctx.check_holds(self.max_index)?;
         let p = ctx.particles();
         let (x, w) = (p.x, p.inv_mass);
         let alpha = self.compliance;
-        let mut skipped = 0;
-        match self.quad_model {
+        let (quads, batches) = (&self.quads[..], &self.quad_batches[..]);
+        let hinges = &mut self.quad_lambda[..];
+        let mut skipped = match self.quad_model {
             QuadModel::Dihedral => {
-                for ((ids, &rest), lambda) in self
-                    .quads
-                    .iter()
-                    .zip(&self.quad_rest)
-                    .zip(&mut self.quad_lambda)
-                {
-                    let xs = gather(x, ids);
-                    let ws = ids.map(|i| w[i as usize]);
-                    match project_dihedral(&xs, &ws, rest, alpha, *lambda, h) {
-                        Some(c) => {
-                            scatter(x, ids, &c.dx);
-                            *lambda += c.delta_lambda;
-                        }
-                        None => skipped += 1,
-                    }
-                }
+                let rest = &self.quad_rest[..];
+                project_batches(team, x, w, quads, hinges, batches, &|k, xs, ws, lambda| {
+                    project_dihedral(xs, ws, rest[k], alpha, lambda, h)
+                })
             }
             QuadModel::Isometric => {
-                for ((ids, k), lambda) in self
-                    .quads
-                    .iter()
-                    .zip(&self.quad_weights)
-                    .zip(&mut self.quad_lambda)
-                {
-                    let xs = gather(x, ids);
-                    let ws = ids.map(|i| w[i as usize]);
-                    match project_isometric(&xs, k, &ws, alpha, *lambda, h) {
-                        Some(c) => {
-                            scatter(x, ids, &c.dx);
-                            *lambda += c.delta_lambda;
-                        }
-                        None => skipped += 1,
-                    }
-                }
+                let weights = &self.quad_weights[..];
+                project_batches(team, x, w, quads, hinges, batches, &|k, xs, ws, lambda| {
+                    project_isometric(xs, &weights[k], ws, alpha, lambda, h)
+                })
             }
-        }
-        for ((ids, &rest), lambda) in self
-            .triples
-            .iter()
-            .zip(&self.triple_rest)
-            .zip(&mut self.triple_lambda)
-        {
-            let xs = gather(x, ids);
-            let ws = ids.map(|i| w[i as usize]);
-            match project_edge_angle(&xs, &ws, rest, alpha, *lambda, h) {
-                Some(c) => {
-                    scatter(x, ids, &c.dx);
-                    *lambda += c.delta_lambda;
-                }
-                None => skipped += 1,
-            }
-        }
+        };
+        let rest = &self.triple_rest[..];
+        skipped += project_batches(
+            team,
+            x,
+            w,
+            &self.triples,
+            &mut self.triple_lambda,
+            &self.triple_batches,
+            &|k, xs, ws, lambda| project_edge_angle(xs, ws, rest[k], alpha, lambda, h),
+        );
         self.skipped = skipped;
         Ok(())
     }
@@ -634,7 +669,8 @@ mod tests {
     fn constraints_of_one_colour_share_no_particle() {
         // Hinges of a strip of triangles.
         let ids: Vec<[u32; 4]> = (0..40).map(|k| [k, k + 1, k + 2, k + 3]).collect();
-        let order = independent_sets_order(&ids, 43);
+        let (order, batches) = colour_order(&ids, 43);
+        assert!(batches.iter().all(|(_, independent)| *independent));
         let mut seen = order.clone();
         seen.sort_unstable();
         assert_eq!(seen, (0..40).collect::<Vec<_>>(), "a permutation");

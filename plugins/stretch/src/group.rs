@@ -11,6 +11,7 @@ use crate::lanes::{
     project_colour_compliant, project_colour_hard, project_edges_compliant_one_by_one,
     project_edges_hard_one_by_one,
 };
+use nucleus_sdk::colour::{colour_batches, greedy_colours, independent_sets_order};
 use nucleus_sdk::team::{span, SharedArray};
 
 /// Smallest valid `rest_length_scale`: the scale must be positive, and a bound that prints
@@ -435,68 +436,12 @@ impl ConstraintGroup for StretchGroup {
     }
 }
 
-/// The colour of an edge of a particle that already has edges of all 64 colours: the last
-/// colour, in which edges may share particles.
-pub(crate) const OVERFLOW_COLOUR: usize = 64;
-
-/// Greedy colouring of `count` items in their given order, item `k` writing the particles
-/// `written(k)`: each takes the smallest colour no item writing one of its particles has yet,
-/// so the items of one colour (below [`OVERFLOW_COLOUR`]) write no common particle. An item
-/// all of whose colours are taken gets [`OVERFLOW_COLOUR`]. Edges write their two ends
-/// ([`edge_colours`]); stars their centre and its neighbours ([`crate::star`]).
-pub(crate) fn greedy_colours<I: Iterator<Item = usize>>(
-    count: usize,
-    particles: usize,
-    written: impl Fn(usize) -> I,
-) -> Vec<usize> {
-    let mut used = vec![0u64; particles];
-    (0..count)
-        .map(|k| {
-            let taken = written(k).fold(0u64, |acc, p| acc | used[p]);
-            if taken == u64::MAX {
-                return OVERFLOW_COLOUR;
-            }
-            let colour = (!taken).trailing_zeros() as usize;
-            written(k).for_each(|p| used[p] |= 1 << colour);
-            colour
-        })
-        .collect()
-}
-
 /// Greedy colouring of the edges in their given order ([`greedy_colours`]): the edges of one
-/// colour (below [`OVERFLOW_COLOUR`]) share no particle.
+/// colour (below [`OVERFLOW_COLOUR`](nucleus_sdk::colour::OVERFLOW_COLOUR)) share no particle.
 pub(crate) fn edge_colours(ids: &[[u32; 2]], particles: usize) -> Vec<usize> {
     greedy_colours(ids.len(), particles, |k| {
         ids[k].into_iter().map(|p| p as usize)
     })
-}
-
-/// A fixed order of the edges in which runs of consecutive edges share no particle: colour by
-/// colour ([`edge_colours`]), each colour in the given order. Deterministic; the projection
-/// stays plain sequential Gauss-Seidel over it, but consecutive edges no longer wait for each
-/// other's position writes, so the processor overlaps their square roots and divisions.
-pub(crate) fn independent_sets_order(colours: &[usize]) -> Vec<usize> {
-    let mut order: Vec<usize> = (0..colours.len()).collect();
-    order.sort_by_key(|&k| colours[k]); // stable: the given order within a colour
-    order
-}
-
-/// The consecutive ranges of `order` (from [`independent_sets_order`]) of one colour each,
-/// flagged `true` when that colour is a real one (its items write no common particle) and so
-/// may be split over threads; `false` for [`OVERFLOW_COLOUR`].
-pub(crate) fn colour_batches(
-    colours: &[usize],
-    order: &[usize],
-) -> Vec<(std::ops::Range<usize>, bool)> {
-    let mut batches = Vec::new();
-    let mut start = 0;
-    while start < order.len() {
-        let colour = colours[order[start]];
-        let end = start + order[start..].partition_point(|&k| colours[k] == colour);
-        batches.push((start..end, colour < OVERFLOW_COLOUR));
-        start = end;
-    }
-    batches
 }
 
 /// The stages of a `stretch` group, edges or stars: `begin_substep` only where there is
@@ -533,6 +478,7 @@ pub(crate) fn build(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nucleus_sdk::colour::OVERFLOW_COLOUR;
 
     /// The edges of a `n × n` vertex grid with one diagonal per quad, sorted as a scene
     /// lists them.

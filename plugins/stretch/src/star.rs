@@ -78,9 +78,9 @@ use nucleus_sdk::team::{span, SharedArray};
 use crate::chebyshev::Chebyshev;
 use crate::distance::{EdgeMaterial, XpbdTerms, MIN_LENGTH};
 use crate::group::{
-    colour_batches, edge_residual, greedy_colours, independent_sets_order, reset_substep,
-    substep_stages, Edges, StretchParams, PARALLEL_MIN_EDGES,
+    edge_residual, reset_substep, substep_stages, Edges, StretchParams, PARALLEL_MIN_EDGES,
 };
+use nucleus_sdk::colour::{colour_batches, greedy_colours, independent_sets_order};
 
 /// A star's spokes are solved together in chunks of at most this many (a stack buffer).
 pub const MAX_SPOKES: usize = 32;
