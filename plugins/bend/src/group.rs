@@ -427,9 +427,13 @@ type Step<'a, const N: usize> =
 /// Projects the constraints `ids[k]` batch by batch, in order, each by `step`, accumulating
 /// its multiplier in `lambda[k]`; an independent batch of at least
 /// [`PARALLEL_MIN_CONSTRAINTS`] is split over `team` (see [`BendGroup::project`]). Returns
-/// how many were skipped. Every index must be below `x.len()` and `w.len()` (the caller has
-/// checked the group's largest index against the state).
-fn project_batches<const N: usize>(
+/// how many were skipped.
+///
+/// # Safety
+/// Every index of `ids` is below `x.len()`, each constraint's indices are distinct, and the
+/// constraints of a batch flagged independent share no particle (as [`colour_order`] makes
+/// them).
+unsafe fn project_batches<const N: usize>(
     team: TeamRef<'_>,
     x: &mut [DVec3],
     w: &[f64],
@@ -446,8 +450,8 @@ fn project_batches<const N: usize>(
         for k in range {
             let c = &ids[k];
             let ws = c.map(|i| w[i as usize]);
-            // SAFETY: every index is in bounds (the caller's check), the constraint's particles
-            // are distinct, and within one part of an independent batch no other part writes or
+            // SAFETY: every index is in bounds and the constraint's particles are distinct (the
+            // caller's contract), and within one part of an independent batch no other part writes or
             // reads them; a batch that is not split runs on this thread alone. `k` is below
             // `lambda.len()` (asserted) and belongs to this part only.
             unsafe {
@@ -509,30 +513,42 @@ impl ConstraintGroup for BendGroup {
         let alpha = self.compliance;
         let (quads, batches) = (&self.quads[..], &self.quad_batches[..]);
         let hinges = &mut self.quad_lambda[..];
+        // The contract of `project_batches`, for the three calls below: the group's largest
+        // index was checked against the state above; `new` refused constraints that use a
+        // particle twice (and `curve_chains` makes none) and ordered each by `colour_order`.
         let mut skipped = match self.quad_model {
             QuadModel::Dihedral => {
                 let rest = &self.quad_rest[..];
-                project_batches(team, x, w, quads, hinges, batches, &|k, xs, ws, lambda| {
-                    project_dihedral(xs, ws, rest[k], alpha, lambda, h)
-                })
+                // SAFETY: the contract, as said above.
+                unsafe {
+                    project_batches(team, x, w, quads, hinges, batches, &|k, xs, ws, lambda| {
+                        project_dihedral(xs, ws, rest[k], alpha, lambda, h)
+                    })
+                }
             }
             QuadModel::Isometric => {
                 let weights = &self.quad_weights[..];
-                project_batches(team, x, w, quads, hinges, batches, &|k, xs, ws, lambda| {
-                    project_isometric(xs, &weights[k], ws, alpha, lambda, h)
-                })
+                // SAFETY: the contract, as said above.
+                unsafe {
+                    project_batches(team, x, w, quads, hinges, batches, &|k, xs, ws, lambda| {
+                        project_isometric(xs, &weights[k], ws, alpha, lambda, h)
+                    })
+                }
             }
         };
         let rest = &self.triple_rest[..];
-        skipped += project_batches(
-            team,
-            x,
-            w,
-            &self.triples,
-            &mut self.triple_lambda,
-            &self.triple_batches,
-            &|k, xs, ws, lambda| project_edge_angle(xs, ws, rest[k], alpha, lambda, h),
-        );
+        // SAFETY: the contract, as said above.
+        skipped += unsafe {
+            project_batches(
+                team,
+                x,
+                w,
+                &self.triples,
+                &mut self.triple_lambda,
+                &self.triple_batches,
+                &|k, xs, ws, lambda| project_edge_angle(xs, ws, rest[k], alpha, lambda, h),
+            )
+        };
         self.skipped = skipped;
         Ok(())
     }
