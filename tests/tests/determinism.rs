@@ -50,6 +50,12 @@ fn assert_one_and_two_threads_agree(tag: &str, text: &str) {
     assert!(first != last, "the cloth must have moved ({tag})");
 }
 
+/// [`assert_one_and_two_threads_agree`] on the drape of `n × n` vertices (4 frames of 4
+/// substeps, one pass each) with `constraints`.
+fn assert_drape_agrees_on_one_and_two_threads(tag: &str, n: u32, constraints: &str) {
+    assert_one_and_two_threads_agree(tag, &drape_text(n, 4, 4, 1, constraints));
+}
+
 fn stats_without_wall(dir: &std::path::Path) -> Vec<String> {
     let text = std::fs::read_to_string(dir.join("stats.csv")).unwrap();
     let wall = text
@@ -181,11 +187,9 @@ params = { compliance = 1e-7 }
 #[test]
 fn tethers_on_one_and_two_threads_give_bit_identical_frames() {
     // 96 × 96 with two tethers per particle: 18,430 tethers, a pass split over the team.
-    let text = drape_text(
+    assert_drape_agrees_on_one_and_two_threads(
+        "tether",
         96,
-        4,
-        4,
-        1,
         r#"
 [[constraints]]
 kind = "stretch"
@@ -195,18 +199,15 @@ kind = "tether"
 objects = ["cloth"]
 "#,
     );
-    assert_one_and_two_threads_agree("tether", &text);
 }
 
 #[test]
 fn bending_on_one_and_two_threads_gives_bit_identical_frames() {
     // 64 × 64: about 12,000 hinges per bend group in colours of several hundred, and 24,000
     // shear corners, each colour split over the team (`PARALLEL_MIN_CONSTRAINTS`).
-    let text = drape_text(
+    assert_drape_agrees_on_one_and_two_threads(
+        "bend",
         64,
-        4,
-        4,
-        1,
         r#"
 [[constraints]]
 kind = "stretch"
@@ -225,18 +226,15 @@ objects = ["cloth"]
 params = { compliance = 1e2 }
 "#,
     );
-    assert_one_and_two_threads_agree("bend", &text);
 }
 
 #[test]
 fn a_stretch_hierarchy_on_one_and_two_threads_gives_bit_identical_frames() {
     // 96 × 96: the finest coarse level drops about 6,900 particles, whose prolongation is split
     // over the team (`PARALLEL_MIN_DROPPED`).
-    let text = drape_text(
+    assert_drape_agrees_on_one_and_two_threads(
+        "hierarchy",
         96,
-        4,
-        4,
-        1,
         r#"
 [[constraints]]
 kind = "stretch"
@@ -247,25 +245,12 @@ objects = ["cloth"]
 params = { straight_lengths = true }
 "#,
     );
-    assert_one_and_two_threads_agree("hierarchy", &text);
 }
 
 #[test]
 fn stars_on_one_and_two_threads_give_bit_identical_frames() {
     // 96 × 96 with a star at every particle (`blocks = "stars"`): colours of ~700 stars, split
     // over the team; then a cloth with a column 1,000 times lighter.
-    let stars = drape_text(
-        96,
-        4,
-        4,
-        1,
-        r#"
-[[constraints]]
-kind = "stretch"
-objects = ["cloth"]
-params = { blocks = "stars" }
-"#,
-    );
     let light_column = r#"
 [solver]
 frames = 4
@@ -283,7 +268,16 @@ plane = "xz"
 kind = "stretch"
 params = { blocks = "stars" }
 "#;
-    assert_one_and_two_threads_agree("stars", &stars);
+    assert_drape_agrees_on_one_and_two_threads(
+        "stars",
+        96,
+        r#"
+[[constraints]]
+kind = "stretch"
+objects = ["cloth"]
+params = { blocks = "stars" }
+"#,
+    );
     assert_one_and_two_threads_agree("light-column", light_column);
 }
 
