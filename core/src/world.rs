@@ -430,6 +430,17 @@ fn for_ranges_mut<T: Send>(
     });
 }
 
+/// The process's thread team while a substep holds it ([`team::shared`]).
+type TeamGuard = std::sync::MutexGuard<'static, Option<team::Team>>;
+
+/// The team a held guard lends, or the serial team when none is held.
+fn team_ref(guard: &Option<TeamGuard>) -> TeamRef<'_> {
+    guard
+        .as_ref()
+        .and_then(|g| g.as_ref())
+        .map_or(TeamRef::serial(), TeamRef::new)
+}
+
 /// Whether every component is finite: no component has an all-ones exponent (NaN or ±∞).
 ///
 /// The check runs after every group call, so it is written for speed: an OR over integers
@@ -664,25 +675,11 @@ impl Simulation {
     /// own particle loops and every group's passes run on it. When another simulation holds it
     /// (two stepping at once), this one runs on its own thread, with the same results.
     pub fn substep(&mut self, substep: u32) -> Result<(), StepError> {
-        // A scene without groups and too small to split its own loops does not need the team.
-        let wanted = !self.groups.is_empty() || self.particles.len() >= PARALLEL_MIN_PARTICLES;
-        let guard = if self.threads > 1 && wanted {
-            team::shared(self.threads)
-        } else {
-            None
-        };
-        let team = guard
-            .as_ref()
-            .and_then(|g| g.as_ref())
-            .map_or(TeamRef::serial(), TeamRef::new);
+        let guard = self.team_guard();
+        let team = team_ref(&guard);
         let h = self.h();
         let t1 = self.time + h;
-        self.update_pin_transforms(t1);
-        self.apply_gravity(h, team);
-        for k in 0..self.force_groups.len() {
-            self.call_group(self.force_groups[k], Stage::Force, substep, 0, 1, team)?;
-        }
-        self.predict(h, t1, team);
+        self.predict_stages(substep, h, t1, team)?;
         for k in 0..self.begin_groups.len() {
             self.call_group(
                 self.begin_groups[k],
@@ -708,6 +705,70 @@ impl Simulation {
         self.damp(h, team);
         self.time = t1;
         Ok(())
+    }
+
+    /// The process's thread team for one substep, if this simulation uses more than one
+    /// thread and another simulation does not hold the team: a scene without groups and too
+    /// small to split its own loops does not ask for it.
+    fn team_guard(&self) -> Option<TeamGuard> {
+        let wanted = !self.groups.is_empty() || self.particles.len() >= PARALLEL_MIN_PARTICLES;
+        if self.threads > 1 && wanted {
+            team::shared(self.threads)
+        } else {
+            None
+        }
+    }
+
+    /// The stages of a substep before the groups' `begin_substep`: the pins' transforms at the
+    /// substep's end `t1`, gravity, the force groups, then the prediction.
+    fn predict_stages(
+        &mut self,
+        substep: u32,
+        h: f64,
+        t1: f64,
+        team: TeamRef<'_>,
+    ) -> Result<(), StepError> {
+        self.update_pin_transforms(t1);
+        self.apply_gravity(h, team);
+        for k in 0..self.force_groups.len() {
+            self.call_group(self.force_groups[k], Stage::Force, substep, 0, 1, team)?;
+        }
+        self.predict(h, t1, team);
+        Ok(())
+    }
+
+    /// For benchmarks and tests that time or inspect one group's stages: the first stages of
+    /// substep `substep` exactly as [`Simulation::substep`] runs them (pins, gravity, force
+    /// groups, the prediction `x0 = x`, `x += h v`), stopping before any group's
+    /// `begin_substep`. The time does not advance. Follow it with [`Simulation::run_stage`].
+    pub fn predict_substep(&mut self, substep: u32) -> Result<(), StepError> {
+        let guard = self.team_guard();
+        let team = team_ref(&guard);
+        let h = self.h();
+        let t1 = self.time + h;
+        self.predict_stages(substep, h, t1, team)
+    }
+
+    /// For benchmarks and tests: calls group `group`'s `stage` as [`Simulation::substep`]
+    /// does — the same context (its passes are the group's importance times the iterations),
+    /// the same thread team and the same finite check — as pass `pass` of substep `substep`.
+    /// The core's own stages between the groups' (the velocity update, damping) are not run.
+    pub fn run_stage(
+        &mut self,
+        group: usize,
+        stage: Stage,
+        substep: u32,
+        pass: u32,
+    ) -> Result<(), StepError> {
+        let guard = self.team_guard();
+        let team = team_ref(&guard);
+        let passes = match stage {
+            Stage::Project => self.groups[group]
+                .importance
+                .saturating_mul(self.settings.iterations),
+            _ => 1,
+        };
+        self.call_group(group, stage, substep, pass, passes, team)
     }
 
     /// Each object's pin transform at time `t`, for the moving pins' targets (see

@@ -28,12 +28,8 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
-use glam::DVec3;
-use nucleus_core::world::Particles;
+use nucleus_core::world::{Particles, Stage};
 use nucleus_core::{Registry, Scene, Simulation};
-use nucleus_sdk::abi_stable::std_types::RResult;
-use nucleus_sdk::prelude::*;
-use nucleus_sdk::TeamRef;
 
 /// The scene, relative to this crate.
 const SCENE: &str = "../../scenes/cloth_heap.toml";
@@ -115,68 +111,31 @@ impl Heap {
         }
     }
 
-    /// The core's stages before the groups, from the saved state: gravity, then the
-    /// prediction (the heap has no kinematic particle).
+    /// The core's stages before the groups, from the saved state (pins, gravity, the
+    /// prediction), exactly as a substep runs them.
     fn predict(&mut self) {
         self.restore();
-        let h = self.sim.h();
-        let g = DVec3::from_array(self.sim.settings.gravity);
-        let p = &mut self.sim.particles;
-        for i in 0..p.x.len() {
-            p.x0[i] = p.x[i];
-            if p.inv_mass[i] > 0.0 {
-                let v = DVec3::from_array(p.v[i]) + g * h;
-                p.v[i] = v.to_array();
-                p.x[i] = (DVec3::from_array(p.x[i]) + v * h).to_array();
-            }
-        }
+        self.sim
+            .predict_substep(0)
+            .unwrap_or_else(|e| panic!("{e}"));
     }
 
-    /// The collision group's stages of one substep: `begin_substep`, and if `full`, its
-    /// passes and `end_substep` (the velocity update between them is the core's and cheap).
+    /// The collision group's stages of one substep, through the core as a substep calls them
+    /// (the same context and thread team): `begin_substep`, and if `full`, its passes and
+    /// `end_substep` (the velocity update between them is the core's and cheap).
     fn collision_substep(&mut self, full: bool) {
-        let h = self.sim.h();
-        let settings = &self.sim.settings;
-        let passes = self.sim.groups[self.collision].importance * settings.iterations;
-        let p = &mut self.sim.particles;
-        let mut ctx = SolveContext {
-            time: self.time,
-            gravity: settings.gravity,
-            frame: self.frame,
-            substeps: settings.substeps,
-            passes,
-            ..SolveContext::new(
-                &mut p.x,
-                &mut p.v,
-                &p.x0,
-                &p.inv_mass,
-                &p.object,
-                &p.flags,
-                h,
-            )
+        let (g, sim) = (self.collision, &mut self.sim);
+        let run = |sim: &mut Simulation, stage, pass| {
+            sim.run_stage(g, stage, 0, pass)
+                .unwrap_or_else(|e| panic!("{e}"))
         };
-        // The host's thread team, as the core lends it (`RAYON_NUM_THREADS`).
-        let guard = match self.sim.threads {
-            t if t > 1 => nucleus_sdk::team::shared(t),
-            _ => None,
-        };
-        ctx.team = guard
-            .as_ref()
-            .and_then(|g| g.as_ref())
-            .map_or(TeamRef::serial(), TeamRef::new);
-        let group = &mut self.sim.groups[self.collision].group;
-        let ok = |r: RResult<(), PluginError>| {
-            if let RResult::RErr(e) = r {
-                panic!("{e}");
-            }
-        };
-        ok(group.begin_substep(&mut ctx));
+        run(sim, Stage::BeginSubstep, 0);
         if full {
+            let passes = sim.groups[g].importance * sim.settings.iterations;
             for pass in 0..passes {
-                ctx.pass = pass;
-                ok(group.project(&mut ctx));
+                run(sim, Stage::Project, pass);
             }
-            ok(group.end_substep(&mut ctx));
+            run(sim, Stage::EndSubstep, 0);
         }
     }
 }
