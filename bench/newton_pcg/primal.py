@@ -205,17 +205,18 @@ def geometric_prolongators(x_free, edges_free, coarsest):
     return out
 
 
-def galerkin_hierarchy(Hf, prolongators, sweep):
+def galerkin_hierarchy(Hf, prolongators, sweep, coarse=None):
     """The V-cycle over `Hf` and its Galerkin operators `R A P`, level by level for the
-    `(P, R)` pairs (finest first), smoothed by `sweep` before and after."""
+    `(P, R)` pairs (finest first), smoothed by `sweep` before and after. `coarse`, if given,
+    holds those operators already computed (one per pair), so they are not formed again."""
     from pyamg.multilevel import MultilevelSolver
     from pyamg.relaxation.smoothing import change_smoothers
 
     levels, A = [], Hf.tocsr()
-    for P, R in prolongators:
+    for k, (P, R) in enumerate(prolongators):
         lv = MultilevelSolver.Level()
         lv.A, lv.P, lv.R = A, P, R
-        A = (R @ A @ P).tocsr()
+        A = coarse[k] if coarse is not None else (R @ A @ P).tocsr()
         levels.append(lv)
     lv = MultilevelSolver.Level()
     lv.A = A
@@ -283,7 +284,7 @@ def gmg_hierarchy(Hf, x_free):
     operators over the scalar prolongators (Kronecker'd with I3), or with `--rot` from level
     `--rot-from` on the rotational ones fitted to `x_free`. Keeps the levels' unknowns per
     particle as `block_sizes`, for `--coarse-every`'s smoothers."""
-    pr, xf, dofs, sizes, A = [], x_free, 3, [3], Hf.tocsr()
+    pr, xf, dofs, sizes, A, coarse = [], x_free, 3, [3], Hf.tocsr(), []
     for level, (P, kept) in enumerate(gmg_prolongators):
         fine_dofs = dofs
         if not a.rot or level + 1 < a.rot_from:
@@ -292,12 +293,15 @@ def gmg_hierarchy(Hf, x_free):
             R = rotational_prolongator(P, xf, xf[kept], dofs)
             dofs = 6
         if a.smooth_p:
+            # Each smoothed prolongator needs its level's operator, so the Galerkin products
+            # are formed here, once, and handed on.
             R = smoothed(A, R, fine_dofs)
             A = (R.T @ A @ R).tocsr()
+            coarse.append(A)
         pr.append((R, R.T.tocsr()))
         xf = xf[kept]
         sizes.append(dofs)
-    ml = galerkin_hierarchy(Hf, pr, gmg_sweeps(sizes))
+    ml = galerkin_hierarchy(Hf, pr, gmg_sweeps(sizes), coarse if a.smooth_p else None)
     ml.block_sizes = sizes
     return ml
 
