@@ -430,6 +430,11 @@ fn for_ranges_mut<T: Send>(
     });
 }
 
+/// The most `project` calls one substep may make (iterations × the groups' importances). The
+/// schedule is laid out as a list of calls, so a scene asking for billions would exhaust memory
+/// before its first step; a million calls a substep is already seconds a substep.
+pub const MAX_CALLS_PER_SUBSTEP: u64 = 1 << 20;
+
 /// The process's thread team while a substep holds it ([`team::shared`]).
 type TeamGuard = std::sync::MutexGuard<'static, Option<team::Team>>;
 
@@ -456,6 +461,22 @@ pub fn all_finite(xs: &[[f64; 3]]) -> bool {
         bad | (v.to_bits() & EXPONENT).wrapping_add(EXPONENT_ONE)
     });
     carried >> 63 == 0
+}
+
+/// The first parameter (by name, in key order) holding a NaN or an infinity, anywhere in its
+/// value, and that number.
+fn non_finite(table: &toml::Table) -> Option<(String, f64)> {
+    fn find(v: &toml::Value) -> Option<f64> {
+        match v {
+            toml::Value::Float(f) if !f.is_finite() => Some(*f),
+            toml::Value::Array(a) => a.iter().find_map(find),
+            toml::Value::Table(t) => t.values().find_map(find),
+            _ => None,
+        }
+    }
+    table
+        .iter()
+        .find_map(|(k, v)| find(v).map(|x| (k.clone(), x)))
 }
 
 fn toml_to_json(v: &toml::Value) -> serde_json::Value {
@@ -558,6 +579,18 @@ impl Simulation {
                     .unwrap_or_default(),
             ));
             let params_span = c.params.as_ref().map_or(c.kind.span(), |p| p.span());
+            // JSON has no NaN or infinity: such a value would reach the plugin as `null`.
+            if let Some((key, x)) = c.params.as_ref().and_then(|p| non_finite(p.get_ref())) {
+                return Err(scene
+                    .invalid(
+                        params_span,
+                        format!(
+                            "constraint `{name}` (kind `{kind}`): parameter `{key}` is {x}; \
+                             every number must be finite"
+                        ),
+                    )
+                    .into());
+            }
             let validated = nucleus_sdk::params::validate(&params, info.params.as_slice())
                 .map_err(|e| {
                     scene.invalid(
@@ -604,6 +637,30 @@ impl Simulation {
             });
         }
         drop(views);
+        let calls: u64 = groups
+            .iter()
+            .filter(|g| g.len > 0 && g.stages.contains(Stages::PROJECT))
+            .map(|g| u64::from(g.importance) * u64::from(settings.iterations))
+            .sum();
+        if calls > MAX_CALLS_PER_SUBSTEP {
+            // Point at what made it large: the iterations, or else an importance override.
+            let needle = if settings.iterations > 1 {
+                "iterations"
+            } else {
+                "importance"
+            };
+            return Err(scene
+                .invalid_near(
+                    needle,
+                    format!(
+                        "{calls} projection calls per substep (iterations {} × the groups' \
+                         importances) is more than the {MAX_CALLS_PER_SUBSTEP} the scheduler \
+                         lays out; use fewer iterations or a lower importance",
+                        settings.iterations
+                    ),
+                )
+                .into());
+        }
         let mut sim = Simulation {
             settings,
             objects,

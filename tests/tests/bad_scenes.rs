@@ -1,7 +1,8 @@
 //! Bad scenes get a clear error with `file:line:col`, a non-zero exit, and no output that
 //! claims to be complete: malformed TOML, an unknown field, an unknown kind, a missing OBJ
 //! file, a pin index out of range, NaN or negative mass, zero substeps, a substep length that
-//! under- or overflows, a substep so long that gravity overflows in one.
+//! under- or overflows, a substep so long that gravity overflows in one, a schedule of billions
+//! of calls a substep.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -106,6 +107,23 @@ fn unknown_parameter_is_located_and_named() {
         "objects = [\"cloth\"]\nparams = { complience = 0.0 }\n",
     );
     assert_error_at("unknown-param", &text, 16, "`complience`");
+}
+
+#[test]
+fn a_nan_or_infinite_parameter_is_located_and_named() {
+    // TOML has nan and inf; JSON, which carries parameters to plugins, has neither: they
+    // arrived as `null` ("expected a number, found null").
+    for (value, said) in [
+        ("compliance = nan", "parameter `compliance` is NaN"),
+        ("compliance = -inf", "parameter `compliance` is -inf"),
+        ("extra = [1.0, inf]", "parameter `extra` is inf"),
+    ] {
+        let text = replace(
+            "objects = [\"cloth\"]\n",
+            &format!("objects = [\"cloth\"]\nparams = {{ {value} }}\n"),
+        );
+        assert_error_at("non-finite-param", &text, 16, said);
+    }
 }
 
 #[test]
@@ -283,6 +301,35 @@ fn a_substep_length_that_is_not_a_positive_finite_number_is_refused() {
             &format!("the substep length 1 / (frame_rate × substeps) = {h}"),
         );
     }
+}
+
+#[test]
+fn a_schedule_of_billions_of_calls_a_substep_is_refused_before_it_is_laid_out() {
+    // 4e9 iterations: the call list alone would need 96 GB, and the host aborted on the failed
+    // allocation. The same through one constraint's importance.
+    assert_error_at(
+        "huge-iterations",
+        &replace("substeps = 2", "substeps = 2\niterations = 4000000000"),
+        4,
+        "4000000000 projection calls per substep (iterations 4000000000",
+    );
+    assert_error_at(
+        "huge-importance",
+        &replace(
+            "objects = [\"cloth\"]",
+            "objects = [\"cloth\"]\nimportance = 4000000000",
+        ),
+        16,
+        "more than the 1048576 the scheduler lays out",
+    );
+    // Up to the bound, the scene is built (and runs: one substep of it is a million calls of a
+    // 16-particle cloth).
+    let (code, msg, _, _) = run(
+        "many-iterations",
+        &replace("substeps = 2", "substeps = 2\niterations = 1048576")
+            .replace("frames = 3", "frames = 1"),
+    );
+    assert_eq!(code, Some(0), "{msg}");
 }
 
 #[test]
