@@ -336,7 +336,14 @@ pub fn run(args: &BenchArgs, registry: &Registry) -> Result<Vec<Row>, String> {
     if let Some(f) = args.frames {
         scene.file.solver.frames = f;
     }
-    let frames = scene.file.solver.frames.max(1);
+    // Every figure is a mean or a peak over the frames run: none without a frame.
+    let frames = scene.file.solver.frames;
+    if frames == 0 {
+        return Err(format!(
+            "{}: the benchmark needs at least 1 frame (--frames or the scene's frames)",
+            args.scene.display()
+        ));
+    }
     let reference = args.reference.unwrap_or((
         *args.substeps.iter().max().unwrap_or(&1),
         *args.iterations.iter().max().unwrap_or(&1),
