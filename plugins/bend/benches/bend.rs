@@ -1,7 +1,9 @@
 //! The hot loops: one `project` pass of each kind, called through the ABI trait object exactly
 //! as the host calls it, over a 128 × 128 cloth (32,258 triangles, 48,005 hinges, 96,774
 //! corners) and a 16,384-segment helical rope (16,383 joints, 16,382 twist chains). Criterion
-//! reports constraints per second; ns per constraint per pass is its inverse.
+//! reports constraints per second; ns per constraint per pass is its inverse. The pass runs on
+//! a thread team of `RAYON_NUM_THREADS` (default: the machine's cores), lent to the context as
+//! the host lends its own (as `stretch`'s benchmark does).
 //!
 //! `cargo bench -p nucleus-bend --bench bend`
 
@@ -120,6 +122,7 @@ fn project_pass(c: &mut Criterion) {
         ("rope", rope(), "bend", "curve_bend"),
         ("rope", rope(), "twist", "twist"),
     ];
+    let team = nucleus_sdk::team::Team::new(nucleus_sdk::team::configured_threads() - 1);
     let mut bench = c.benchmark_group("bend");
     bench
         .sample_size(20)
@@ -145,7 +148,10 @@ fn project_pass(c: &mut Criterion) {
         state.gravity = [0.0, -9.81, 0.0];
         let mut g = group(shape, kind, r#"{"compliance": 1e-2}"#);
         bench.throughput(Throughput::Elements(g.constraint_count()));
-        let mut ctx = state.ctx();
+        let mut ctx = SolveContext {
+            team: nucleus_sdk::TeamRef::new(&team),
+            ..state.ctx()
+        };
         if let Err(e) = g.begin_substep(&mut ctx).into_result() {
             panic!("begin_substep failed: {e}");
         }

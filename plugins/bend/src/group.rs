@@ -15,6 +15,7 @@ use serde::{Deserialize, Serialize};
 use crate::angle::{edge_angle, project_edge_angle};
 use crate::bergou2006_isometric::{curvature_vector, isometric_weights, project_isometric};
 use crate::dihedral::{dihedral_angle, project_dihedral, wrap_angle};
+use crate::lanes::{project_hinge_colour, HingeTerms};
 use crate::step::Correction;
 
 /// Which constraints a group holds; one per kind of this plugin.
@@ -424,15 +425,24 @@ impl BendGroup {
 type Step<'a, const N: usize> =
     dyn Fn(usize, &[DVec3; N], &[f64; N], f64) -> Option<Correction<N>> + Sync + 'a;
 
+/// A kernel for a part of an independent batch, the alternative to `step` one by one:
+/// `(positions, multipliers, range)` projects the constraints `range` in order, with the bits
+/// `step` would give them, and returns how many it skipped ([`project_batches`] calls it only
+/// on a range it owns, of a batch whose constraints share no particle).
+type Colour<'a> = dyn Fn(SharedArray<DVec3>, SharedArray<f64>, Range<usize>) -> u64 + Sync + 'a;
+
 /// Projects the constraints `ids[k]` batch by batch, in order, each by `step`, accumulating
 /// its multiplier in `lambda[k]`; an independent batch of at least
-/// [`PARALLEL_MIN_CONSTRAINTS`] is split over `team` (see [`BendGroup::project`]). Returns
-/// how many were skipped.
+/// [`PARALLEL_MIN_CONSTRAINTS`] is split over `team` (see [`BendGroup::project`]). Each part
+/// of an independent batch (the whole batch when it is not split) goes to `colour` instead
+/// where one is given (the four-lane hinge kernel, [`crate::lanes`]). Returns how many were
+/// skipped.
 ///
 /// # Safety
 /// Every index of `ids` is below `x.len()`, each constraint's indices are distinct, and the
 /// constraints of a batch flagged independent share no particle (as [`colour_order`] makes
 /// them).
+#[allow(clippy::too_many_arguments)]
 unsafe fn project_batches<const N: usize>(
     team: TeamRef<'_>,
     x: &mut [DVec3],
@@ -441,11 +451,16 @@ unsafe fn project_batches<const N: usize>(
     lambda: &mut [f64],
     batches: &[(Range<usize>, bool)],
     step: &Step<'_, N>,
+    colour: Option<&Colour<'_>>,
 ) -> u64 {
     assert!(lambda.len() == ids.len() && batches.last().is_none_or(|b| b.0.end <= ids.len()));
     let (xs, lambdas) = (SharedArray::new(x), SharedArray::new(lambda));
     let skipped = AtomicU64::new(0);
-    let run = |range: Range<usize>| {
+    let run = |range: Range<usize>, independent: bool| {
+        if let (true, Some(colour)) = (independent, colour) {
+            skipped.fetch_add(colour(xs, lambdas, range), Ordering::Relaxed);
+            return;
+        }
         let mut skip = 0;
         for k in range {
             let c = &ids[k];
@@ -475,10 +490,10 @@ unsafe fn project_batches<const N: usize>(
         if parts >= 2 && *independent && range.len() >= PARALLEL_MIN_CONSTRAINTS {
             team.run(&|part| {
                 let s = span(part, parts, range.len());
-                run(range.start + s.start..range.start + s.end)
+                run(range.start + s.start..range.start + s.end, true)
             });
         } else {
-            run(range.clone());
+            run(range.clone(), *independent);
         }
     }
     skipped.into_inner()
@@ -504,7 +519,9 @@ impl ConstraintGroup for BendGroup {
     /// ([`colour_order`]). A colour of at least [`PARALLEL_MIN_CONSTRAINTS`] constraints is
     /// split into contiguous parts over the host's thread team (`ctx.team`): its constraints
     /// share no particle, so each reads and writes only its own, and the bits are the same on
-    /// any thread count. Deterministic, no allocation.
+    /// any thread count. Dihedral hinges of a colour go four at a time through AVX2's lanes
+    /// where the processor has them (the `lanes` module), with the same bits. Deterministic, no
+    /// allocation.
     fn project(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
         let (h, team) = (ctx.substep_length()?, ctx.team);
         ctx.check_holds(self.max_index)?;
@@ -519,20 +536,50 @@ impl ConstraintGroup for BendGroup {
         let mut skipped = match self.quad_model {
             QuadModel::Dihedral => {
                 let rest = &self.quad_rest[..];
+                let terms = HingeTerms { alpha, h };
+                // Four hinges at a time where the processor can, with the same bits.
+                let colour =
+                    |xs: SharedArray<DVec3>, lambdas: SharedArray<f64>, r: Range<usize>| {
+                        // SAFETY: `project_batches` passes a range of `quads` (and so of `rest`
+                        // and of the multipliers, one per hinge) that it owns, of a batch whose
+                        // hinges share no particle, with indices in bounds and distinct within
+                        // each hinge (its contract, met as said above); no other part touches
+                        // them meanwhile.
+                        unsafe {
+                            let lambda = lambdas.slice(r.start, r.len());
+                            project_hinge_colour(xs, w, &quads[r.clone()], &rest[r], lambda, terms)
+                        }
+                    };
                 // SAFETY: the contract, as said above.
                 unsafe {
-                    project_batches(team, x, w, quads, hinges, batches, &|k, xs, ws, lambda| {
-                        project_dihedral(xs, ws, rest[k], alpha, lambda, h)
-                    })
+                    project_batches(
+                        team,
+                        x,
+                        w,
+                        quads,
+                        hinges,
+                        batches,
+                        &|k, xs, ws, lambda| project_dihedral(xs, ws, rest[k], alpha, lambda, h),
+                        Some(&colour),
+                    )
                 }
             }
             QuadModel::Isometric => {
                 let weights = &self.quad_weights[..];
                 // SAFETY: the contract, as said above.
                 unsafe {
-                    project_batches(team, x, w, quads, hinges, batches, &|k, xs, ws, lambda| {
-                        project_isometric(xs, &weights[k], ws, alpha, lambda, h)
-                    })
+                    project_batches(
+                        team,
+                        x,
+                        w,
+                        quads,
+                        hinges,
+                        batches,
+                        &|k, xs, ws, lambda| {
+                            project_isometric(xs, &weights[k], ws, alpha, lambda, h)
+                        },
+                        None,
+                    )
                 }
             }
         };
@@ -547,6 +594,7 @@ impl ConstraintGroup for BendGroup {
                 &mut self.triple_lambda,
                 &self.triple_batches,
                 &|k, xs, ws, lambda| project_edge_angle(xs, ws, rest[k], alpha, lambda, h),
+                None,
             )
         };
         self.skipped = skipped;

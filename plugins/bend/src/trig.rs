@@ -9,14 +9,14 @@
 
 use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 
-const P: [f64; 5] = [
+pub(crate) const P: [f64; 5] = [
     -8.750_608_600_031_904e-1,
     -1.615_753_718_733_365e1,
     -7.500_855_792_314_705e1,
     -1.228_866_684_490_136_2e2,
     -6.485_021_904_942_025e1,
 ];
-const Q: [f64; 5] = [
+pub(crate) const Q: [f64; 5] = [
     2.485_846_490_142_306_4e1,
     1.650_270_098_316_988_6e2,
     4.328_810_604_912_902_5e2,
@@ -24,16 +24,18 @@ const Q: [f64; 5] = [
     1.945_506_571_482_614e2,
 ];
 /// tan(3π/8).
-const T3P8: f64 = 2.414_213_562_373_095;
+pub(crate) const T3P8: f64 = 2.414_213_562_373_095;
+/// At most this, `atan_nonnegative` takes its argument unreduced.
+pub(crate) const UNREDUCED_MAX: f64 = 0.66;
 /// The low bits of π/2 that `FRAC_PI_2` cannot hold.
-const MOREBITS: f64 = 6.123_233_995_736_766e-17;
+pub(crate) const MOREBITS: f64 = 6.123_233_995_736_766e-17;
 
 /// `atan(t)` for `t ≥ 0` (finite or +∞).
 #[inline]
 fn atan_nonnegative(t: f64) -> f64 {
     let (base, x, extra) = if t > T3P8 {
         (FRAC_PI_2, -1.0 / t, MOREBITS)
-    } else if t <= 0.66 {
+    } else if t <= UNREDUCED_MAX {
         (0.0, t, 0.0)
     } else {
         (FRAC_PI_4, (t - 1.0) / (t + 1.0), 0.5 * MOREBITS)

@@ -1,0 +1,769 @@
+//! The dihedral hinge pass four hinges at a time, in the processor's 256-bit lanes (AVX2),
+//! where the processor has them: the same arithmetic as [`project_dihedral`], operation for
+//! operation and in the same order (no fused multiply-add, whose single rounding would differ),
+//! so every position, multiplier and skip comes out with the same bits as the one-hinge kernel.
+//! The four hinges of a lane group are consecutive hinges of one colour, so they share no
+//! particle: their corrections are computed together and written back one by one. The hinges
+//! left over after the last group of four, those of a batch whose hinges may share particles,
+//! and every hinge on a processor without AVX2 take the one-hinge kernel.
+//!
+//! The one-hinge kernel branches on data in four places, and the lanes compute every branch
+//! and keep, lane by lane, the value the branch taken would give:
+//!
+//! * the degenerate hinges ([`crate::dihedral`]'s `hinge` and the finiteness of `φ` and of the
+//!   gradient) and [`xpbd_correction`]'s weighted gradient norm: a lane that the one-hinge
+//!   kernel skips is computed through (NaN, infinities and divisions by zero do no harm in a
+//!   lane) and then neither moved nor given a multiplier, and counted as skipped;
+//! * [`atan2`]: the swap `|y| ≤ |x|`, the range reduction (`t > tan 3π/8`, `t ≤ 0.66`, else)
+//!   as a choice of numerator, denominator and constants before one division, `x < 0`,
+//!   `copysign`, and `(0, 0)` giving `+0`;
+//! * [`wrap_angle`]: both wrapped values, kept by the two comparisons;
+//! * [`delta_lambda`]'s guard on the denominator: `+0` where it returns `0.0`, and the
+//!   correction still applied then (it may turn a `−0` coordinate into `+0`, as the scalar
+//!   code does).
+//!
+//! Why: within a colour the hinges are independent, but the one-hinge kernel is a long chain
+//! of dependent operations (three cross products, a square root, two divisions in `atan2` and
+//! one for the gradient, the rational polynomial of `atan`), some hundred and forty
+//! operations per hinge, and the processor's reorder window holds few hinges at once; the
+//! lanes do each operation for four. Measured in the crate docs' "Cost" section.
+//!
+//! [`project_dihedral`]: crate::dihedral::project_dihedral
+//! [`xpbd_correction`]: crate::step::xpbd_correction
+//! [`atan2`]: crate::trig::atan2
+//! [`wrap_angle`]: crate::dihedral::wrap_angle
+//! [`delta_lambda`]: nucleus_sdk::xpbd::delta_lambda
+
+use glam::DVec3;
+use nucleus_sdk::team::SharedArray;
+
+use crate::dihedral::project_dihedral;
+
+/// Whether this processor runs the four-lane kernel (checked once by the standard library, then
+/// cached by it). On processors other than x86_64 it is always false, and only the tests ask.
+#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+pub(crate) fn available() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// What every hinge of a pass shares: the compliance `alpha` (rad/(N·m)) and the substep `h`
+/// (s).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct HingeTerms {
+    pub alpha: f64,
+    pub h: f64,
+}
+
+/// Projects the hinges `ids[k]` in order, one at a time, with [`project_dihedral`] towards
+/// `rest[k]`, accumulating each hinge's multiplier in `lambda[k]`: the reference the four-lane
+/// kernel must match bit for bit, its fallback, and the kernel of a batch whose hinges share
+/// particles. Returns how many hinges were skipped.
+///
+/// # Safety
+/// `x` points to more positions than the largest index of `ids`, valid for the duration of the
+/// call; each hinge's four indices are distinct; no other thread reads or writes the positions
+/// of these hinges' particles meanwhile.
+pub(crate) unsafe fn project_hinges_one_by_one(
+    x: SharedArray<DVec3>,
+    w: &[f64],
+    ids: &[[u32; 4]],
+    rest: &[f64],
+    lambda: &mut [f64],
+    terms: HingeTerms,
+) -> u64 {
+    let mut skipped = 0;
+    for ((c, &rest), lambda) in ids.iter().zip(rest).zip(lambda) {
+        let ws = c.map(|i| w[i as usize]);
+        // SAFETY: the caller's contract: every index is in bounds, the four are distinct and
+        // no other thread touches them.
+        unsafe {
+            let pos = c.map(|i| *x.at(i as usize));
+            match project_dihedral(&pos, &ws, rest, terms.alpha, *lambda, terms.h) {
+                Some(correction) => {
+                    for (&i, dx) in c.iter().zip(&correction.dx) {
+                        *x.at(i as usize) += *dx;
+                    }
+                    *lambda += correction.delta_lambda;
+                }
+                None => skipped += 1,
+            }
+        }
+    }
+    skipped
+}
+
+/// Projects the hinges `ids[k]` of one colour (no two share a particle), in order, as
+/// [`project_hinges_one_by_one`] does and with its bits, four at a time where the processor
+/// can ([`available`]). Returns how many hinges were skipped.
+///
+/// # Safety
+/// As [`project_hinges_one_by_one`], and no two of the hinges share a particle.
+pub(crate) unsafe fn project_hinge_colour(
+    x: SharedArray<DVec3>,
+    w: &[f64],
+    ids: &[[u32; 4]],
+    rest: &[f64],
+    lambda: &mut [f64],
+    terms: HingeTerms,
+) -> u64 {
+    #[cfg(target_arch = "x86_64")]
+    if rest.len() == ids.len() && lambda.len() == ids.len() && available() {
+        let whole = ids.len() / 4 * 4;
+        let (four, left) = lambda.split_at_mut(whole);
+        // SAFETY: AVX2 is present (checked above); the rest is the caller's contract.
+        unsafe {
+            return avx2::project_fours(x, w, &ids[..whole], &rest[..whole], four, terms)
+                + project_hinges_one_by_one(x, w, &ids[whole..], &rest[whole..], left, terms);
+        }
+    }
+    // SAFETY: the caller's contract.
+    unsafe { project_hinges_one_by_one(x, w, ids, rest, lambda, terms) }
+}
+
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use std::arch::x86_64::*;
+    use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI, TAU};
+
+    use super::*;
+    use crate::dihedral::MIN_LENGTH;
+    use crate::trig::{MOREBITS, P, Q, T3P8, UNREDUCED_MAX};
+
+    /// Three coordinates of four points, one register each.
+    #[derive(Clone, Copy)]
+    struct Lanes3 {
+        x: __m256d,
+        y: __m256d,
+        z: __m256d,
+    }
+
+    /// Loads the points `p[k[0]]..p[k[3]]` into lanes 0..3: each point's `x, y` as one 16-byte
+    /// load, interleaved by two unpacks, and the four `z` one by one.
+    ///
+    /// # Safety
+    /// Every `k[l]` indexes a point of `p`, valid to read; AVX2 is present.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn load(p: *const DVec3, k: [usize; 4]) -> Lanes3 {
+        // SAFETY: the caller's contract; a `DVec3` is three `f64` in a row (`repr(C)`).
+        let [a, b, c, d] = k.map(|k| unsafe { p.add(k) as *const f64 });
+        // SAFETY: as above, reading the first two and the third double of each point.
+        unsafe {
+            let ac = _mm256_set_m128d(_mm_loadu_pd(c), _mm_loadu_pd(a));
+            let bd = _mm256_set_m128d(_mm_loadu_pd(d), _mm_loadu_pd(b));
+            Lanes3 {
+                x: _mm256_unpacklo_pd(ac, bd),
+                y: _mm256_unpackhi_pd(ac, bd),
+                z: _mm256_setr_pd(*a.add(2), *b.add(2), *c.add(2), *d.add(2)),
+            }
+        }
+    }
+
+    /// Writes lanes 0..3 to the points `p[k[0]]..p[k[3]]`: each point's `x, y` as one 16-byte
+    /// store after two unpacks, and its `z` alone.
+    ///
+    /// # Safety
+    /// Every `k[l]` indexes a point of `p`, valid to write, that no other thread touches; AVX2
+    /// is present.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn store(p: *mut DVec3, k: [usize; 4], v: &Lanes3) {
+        // SAFETY: the caller's contract; a `DVec3` is three `f64` in a row (`repr(C)`).
+        let [a, b, c, d] = k.map(|k| unsafe { p.add(k) as *mut f64 });
+        let ac = _mm256_unpacklo_pd(v.x, v.y); // xa ya xc yc
+        let bd = _mm256_unpackhi_pd(v.x, v.y); // xb yb xd yd
+        let (z_ab, z_cd) = (_mm256_castpd256_pd128(v.z), _mm256_extractf128_pd::<1>(v.z));
+        // SAFETY: as above, writing the first two and the third double of each point.
+        unsafe {
+            _mm_storeu_pd(a, _mm256_castpd256_pd128(ac));
+            _mm_storeu_pd(b, _mm256_castpd256_pd128(bd));
+            _mm_storeu_pd(c, _mm256_extractf128_pd::<1>(ac));
+            _mm_storeu_pd(d, _mm256_extractf128_pd::<1>(bd));
+            _mm_storel_pd(a.add(2), z_ab);
+            _mm_storeh_pd(b.add(2), z_ab);
+            _mm_storel_pd(c.add(2), z_cd);
+            _mm_storeh_pd(d.add(2), z_cd);
+        }
+    }
+
+    /// `((a.x b.x) + (a.y b.y)) + (a.z b.z)`, as [`DVec3::dot`] rounds it.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn dot(a: &Lanes3, b: &Lanes3) -> __m256d {
+        _mm256_add_pd(
+            _mm256_add_pd(_mm256_mul_pd(a.x, b.x), _mm256_mul_pd(a.y, b.y)),
+            _mm256_mul_pd(a.z, b.z),
+        )
+    }
+
+    /// `a × b` as [`DVec3::cross`] rounds it: `(a.y b.z − b.y a.z, a.z b.x − b.z a.x,
+    /// a.x b.y − b.x a.y)` (each product is commutative, so only the differences' order
+    /// matters).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn cross(a: &Lanes3, b: &Lanes3) -> Lanes3 {
+        Lanes3 {
+            x: _mm256_sub_pd(_mm256_mul_pd(a.y, b.z), _mm256_mul_pd(b.y, a.z)),
+            y: _mm256_sub_pd(_mm256_mul_pd(a.z, b.x), _mm256_mul_pd(b.z, a.x)),
+            z: _mm256_sub_pd(_mm256_mul_pd(a.x, b.y), _mm256_mul_pd(b.x, a.y)),
+        }
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn sub(a: &Lanes3, b: &Lanes3) -> Lanes3 {
+        Lanes3 {
+            x: _mm256_sub_pd(a.x, b.x),
+            y: _mm256_sub_pd(a.y, b.y),
+            z: _mm256_sub_pd(a.z, b.z),
+        }
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn add(a: &Lanes3, b: &Lanes3) -> Lanes3 {
+        Lanes3 {
+            x: _mm256_add_pd(a.x, b.x),
+            y: _mm256_add_pd(a.y, b.y),
+            z: _mm256_add_pd(a.z, b.z),
+        }
+    }
+
+    /// `a s`, as `DVec3 * f64` rounds it.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn scale(a: &Lanes3, s: __m256d) -> Lanes3 {
+        Lanes3 {
+            x: _mm256_mul_pd(a.x, s),
+            y: _mm256_mul_pd(a.y, s),
+            z: _mm256_mul_pd(a.z, s),
+        }
+    }
+
+    /// `−v`: the sign bit flipped, as Rust's negation does (not `0 − v`, which gives `+0` for
+    /// `+0`).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn neg(v: __m256d) -> __m256d {
+        _mm256_xor_pd(v, _mm256_set1_pd(-0.0))
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn neg3(a: &Lanes3) -> Lanes3 {
+        Lanes3 {
+            x: neg(a.x),
+            y: neg(a.y),
+            z: neg(a.z),
+        }
+    }
+
+    /// `|v|`: the sign bit cleared, as `f64::abs`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn abs(v: __m256d) -> __m256d {
+        _mm256_andnot_pd(_mm256_set1_pd(-0.0), v)
+    }
+
+    /// All ones in the lanes where `v` is finite (`|v| < ∞`, false for NaN), as
+    /// `f64::is_finite`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn finite(v: __m256d) -> __m256d {
+        _mm256_cmp_pd::<_CMP_LT_OQ>(abs(v), _mm256_set1_pd(f64::INFINITY))
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn finite3(a: &Lanes3) -> __m256d {
+        _mm256_and_pd(_mm256_and_pd(finite(a.x), finite(a.y)), finite(a.z))
+    }
+
+    /// `keep ? a : b`, lane by lane (`keep` all ones or all zeros per lane).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn select(keep: __m256d, a: __m256d, b: __m256d) -> __m256d {
+        _mm256_blendv_pd(b, a, keep)
+    }
+
+    /// `p + d` lane by lane where `apply`, else `p` unchanged.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn moved(p: &Lanes3, d: &Lanes3, apply: __m256d) -> Lanes3 {
+        let to = add(p, d);
+        Lanes3 {
+            x: select(apply, to.x, p.x),
+            y: select(apply, to.y, p.y),
+            z: select(apply, to.z, p.z),
+        }
+    }
+
+    /// [`atan_nonnegative`](crate::trig) of four lanes: each lane's branch picks the
+    /// numerator and denominator of the reduced argument (`−1/t`, `(t − 1)/(t + 1)`) before
+    /// one division, and the base and low bits added after; the unreduced lanes keep `t`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn atan_nonnegative(t: __m256d) -> __m256d {
+        let one = _mm256_set1_pd(1.0);
+        let zero = _mm256_setzero_pd();
+        let big = _mm256_cmp_pd::<_CMP_GT_OQ>(t, _mm256_set1_pd(T3P8));
+        let small = _mm256_cmp_pd::<_CMP_LE_OQ>(t, _mm256_set1_pd(UNREDUCED_MAX));
+        let num = select(big, _mm256_set1_pd(-1.0), _mm256_sub_pd(t, one));
+        let den = select(big, t, _mm256_add_pd(t, one));
+        // `big` and `small` never hold together (T3P8 > 0.66).
+        let x = select(small, t, _mm256_div_pd(num, den));
+        let base = select(
+            big,
+            _mm256_set1_pd(FRAC_PI_2),
+            select(small, zero, _mm256_set1_pd(FRAC_PI_4)),
+        );
+        let extra = select(
+            big,
+            _mm256_set1_pd(MOREBITS),
+            select(small, zero, _mm256_set1_pd(0.5 * MOREBITS)),
+        );
+        let z = _mm256_mul_pd(x, x);
+        let [p0, p1, p2, p3, p4] = P.map(|c| _mm256_set1_pd(c));
+        let [q0, q1, q2, q3, q4] = Q.map(|c| _mm256_set1_pd(c));
+        let step = |acc: __m256d, c: __m256d| _mm256_add_pd(_mm256_mul_pd(acc, z), c);
+        let p = step(step(step(step(p0, p1), p2), p3), p4);
+        let q = step(step(step(step(_mm256_add_pd(z, q0), q1), q2), q3), q4);
+        let ratio = _mm256_div_pd(_mm256_mul_pd(z, p), q);
+        _mm256_add_pd(
+            base,
+            _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(x, ratio), x), extra),
+        )
+    }
+
+    /// [`atan2`](crate::trig::atan2) of four lanes: the smaller of `|y|, |x|` over the larger
+    /// (one division), the quadrant by `x < 0` and the sign of `y`, and `+0` for `(0, 0)`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub(super) fn atan2(y: __m256d, x: __m256d) -> __m256d {
+        let zero = _mm256_setzero_pd();
+        let (ay, ax) = (abs(y), abs(x));
+        let y_smaller = _mm256_cmp_pd::<_CMP_LE_OQ>(ay, ax);
+        // `|y| ≤ |x| = 0`: the scalar code returns +0 at once (neither is NaN there).
+        let origin = _mm256_and_pd(y_smaller, _mm256_cmp_pd::<_CMP_EQ_OQ>(ax, zero));
+        let t = _mm256_div_pd(select(y_smaller, ay, ax), select(y_smaller, ax, ay));
+        let atn = atan_nonnegative(t);
+        let a = select(
+            y_smaller,
+            atn,
+            _mm256_sub_pd(_mm256_set1_pd(FRAC_PI_2), atn),
+        );
+        let a = select(
+            _mm256_cmp_pd::<_CMP_LT_OQ>(x, zero),
+            _mm256_sub_pd(_mm256_set1_pd(PI), a),
+            a,
+        );
+        // `a.copysign(y)`: the magnitude of `a`, the sign bit of `y`.
+        let sign = _mm256_set1_pd(-0.0);
+        let a = _mm256_or_pd(_mm256_andnot_pd(sign, a), _mm256_and_pd(sign, y));
+        select(origin, zero, a)
+    }
+
+    /// [`wrap_angle`](crate::dihedral::wrap_angle) of four lanes: both wrapped values, kept
+    /// where `d > π` or `d ≤ −π`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn wrap_angle(d: __m256d) -> __m256d {
+        let (pi, tau) = (_mm256_set1_pd(PI), _mm256_set1_pd(TAU));
+        let above = _mm256_cmp_pd::<_CMP_GT_OQ>(d, pi);
+        let below = _mm256_cmp_pd::<_CMP_LE_OQ>(d, _mm256_set1_pd(-PI));
+        let d = select(above, _mm256_sub_pd(d, tau), d);
+        select(below, _mm256_add_pd(d, tau), d)
+    }
+
+    /// The hinges in groups of four (`ids.len()`, `rest.len()` and `lambda.len()` equal and a
+    /// multiple of 4): [`project_dihedral`] of each lane, its `hinge`, `Hinge::angle`,
+    /// `dihedral_angle_gradient`, `wrap_angle`, `xpbd_correction` and `delta_lambda` in the
+    /// same operations as the scalar code (each step below names the scalar line it
+    /// reproduces). Returns how many hinges were skipped.
+    ///
+    /// # Safety
+    /// As [`super::project_hinge_colour`]; AVX2 is present.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn project_fours(
+        x: SharedArray<DVec3>,
+        w: &[f64],
+        ids: &[[u32; 4]],
+        rest: &[f64],
+        lambda: &mut [f64],
+        terms: HingeTerms,
+    ) -> u64 {
+        let p = x.at(0);
+        let zero = _mm256_setzero_pd();
+        let one = _mm256_set1_pd(1.0);
+        let infinity = _mm256_set1_pd(f64::INFINITY);
+        let min_sq = _mm256_set1_pd(MIN_LENGTH * MIN_LENGTH);
+        // `delta_lambda`'s `alpha / (h * h)`, one value for every hinge.
+        let alpha_tilde = _mm256_set1_pd(terms.alpha / (terms.h * terms.h));
+        let min_positive = _mm256_set1_pd(f64::MIN_POSITIVE);
+        let mut skipped = 0;
+        let chunks = ids.chunks_exact(4).zip(rest.chunks_exact(4));
+        for ((ids, rest), lambda) in chunks.zip(lambda.chunks_exact_mut(4)) {
+            // The particles of role r (i, j, k, l) of the four hinges, lane by lane.
+            let k = [0, 1, 2, 3].map(|r| [0, 1, 2, 3].map(|l| ids[l][r] as usize));
+            let ws = k.map(|k| _mm256_setr_pd(w[k[0]], w[k[1]], w[k[2]], w[k[3]]));
+            // SAFETY: every index is below the positions' length and no other thread touches
+            // these particles (the caller's contract); AVX2 is present.
+            let xs = k.map(|k| unsafe { load(p, k) });
+
+            // `hinge`: the axis, the wings, the normals and the degenerate tests.
+            let e = sub(&xs[1], &xs[0]);
+            let e_sq = dot(&e, &e);
+            let axis_ok = _mm256_and_pd(
+                _mm256_cmp_pd::<_CMP_GE_OQ>(e_sq, min_sq),
+                _mm256_cmp_pd::<_CMP_LT_OQ>(e_sq, infinity),
+            );
+            let a = sub(&xs[2], &xs[0]);
+            let b = sub(&xs[3], &xs[0]);
+            let n1 = cross(&e, &a);
+            let n2 = cross(&b, &e);
+            let (n1_sq, n2_sq) = (dot(&n1, &n1), dot(&n2, &n2));
+            let min_wing_sq = _mm256_mul_pd(min_sq, e_sq);
+            let wings_ok = _mm256_and_pd(
+                _mm256_and_pd(
+                    _mm256_cmp_pd::<_CMP_GE_OQ>(n1_sq, min_wing_sq),
+                    _mm256_cmp_pd::<_CMP_GE_OQ>(n2_sq, min_wing_sq),
+                ),
+                _mm256_and_pd(
+                    _mm256_cmp_pd::<_CMP_LT_OQ>(n1_sq, infinity),
+                    _mm256_cmp_pd::<_CMP_LT_OQ>(n2_sq, infinity),
+                ),
+            );
+            let e_len = _mm256_sqrt_pd(e_sq);
+
+            // `Hinge::angle`.
+            let phi = atan2(
+                dot(&cross(&n1, &n2), &e),
+                _mm256_mul_pd(dot(&n1, &n2), e_len),
+            );
+
+            // `dihedral_angle_gradient`.
+            let r = _mm256_div_pd(one, _mm256_mul_pd(_mm256_mul_pd(e_sq, n1_sq), n2_sq));
+            let inv_e_sq = _mm256_mul_pd(_mm256_mul_pd(n1_sq, n2_sq), r);
+            let minus_len_sq = _mm256_mul_pd(neg(e_len), e_sq);
+            let gk = scale(&n1, _mm256_mul_pd(_mm256_mul_pd(minus_len_sq, n2_sq), r));
+            let gl = scale(&n2, _mm256_mul_pd(_mm256_mul_pd(minus_len_sq, n1_sq), r));
+            let sk = _mm256_mul_pd(dot(&a, &e), inv_e_sq);
+            let sl = _mm256_mul_pd(dot(&b, &e), inv_e_sq);
+            let gi = neg3(&add(
+                &scale(&gk, _mm256_sub_pd(one, sk)),
+                &scale(&gl, _mm256_sub_pd(one, sl)),
+            ));
+            let gj = neg3(&add(&scale(&gk, sk), &scale(&gl, sl)));
+            let grad = [gi, gj, gk, gl];
+            let finite_ok = _mm256_and_pd(
+                _mm256_and_pd(finite(phi), finite3(&gi)),
+                _mm256_and_pd(_mm256_and_pd(finite3(&gj), finite3(&gk)), finite3(&gl)),
+            );
+
+            // `project_dihedral`'s `C`, then `xpbd_correction` and `delta_lambda`.
+            // SAFETY: `rest` holds four values (`chunks_exact`).
+            let c = wrap_angle(_mm256_sub_pd(phi, unsafe {
+                _mm256_loadu_pd(rest.as_ptr())
+            }));
+            let mut w_grad_sq = zero;
+            for (w, g) in ws.iter().zip(&grad) {
+                w_grad_sq = _mm256_add_pd(w_grad_sq, _mm256_mul_pd(*w, dot(g, g)));
+            }
+            let movable = _mm256_and_pd(
+                _mm256_cmp_pd::<_CMP_GT_OQ>(w_grad_sq, zero),
+                _mm256_cmp_pd::<_CMP_LT_OQ>(w_grad_sq, infinity),
+            );
+            let denom = _mm256_add_pd(w_grad_sq, alpha_tilde);
+            let denom_ok = _mm256_and_pd(
+                _mm256_cmp_pd::<_CMP_GT_OQ>(denom, min_positive),
+                _mm256_cmp_pd::<_CMP_LT_OQ>(denom, infinity),
+            );
+            // SAFETY: `lambda` holds four values (`chunks_exact_mut`).
+            let lambda_in = unsafe { _mm256_loadu_pd(lambda.as_ptr()) };
+            let delta_lambda = select(
+                denom_ok,
+                _mm256_div_pd(
+                    _mm256_sub_pd(neg(c), _mm256_mul_pd(alpha_tilde, lambda_in)),
+                    denom,
+                ),
+                zero,
+            );
+
+            // Apply where the one-hinge kernel returns a correction; skip elsewhere.
+            let apply = _mm256_and_pd(
+                _mm256_and_pd(axis_ok, wings_ok),
+                _mm256_and_pd(finite_ok, movable),
+            );
+            for r in 0..4 {
+                let dx = scale(&grad[r], _mm256_mul_pd(ws[r], delta_lambda));
+                // SAFETY: as for the loads.
+                unsafe { store(p, k[r], &moved(&xs[r], &dx, apply)) };
+            }
+            let lambda_out = select(apply, _mm256_add_pd(lambda_in, delta_lambda), lambda_in);
+            // SAFETY: as for the load of `lambda`.
+            unsafe { _mm256_storeu_pd(lambda.as_mut_ptr(), lambda_out) };
+            skipped += 4 - u64::from(_mm256_movemask_pd(apply).count_ones());
+        }
+        skipped
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::f64::consts::PI;
+
+    use super::*;
+    use crate::testutil::{Draws, Rng};
+
+    /// One colour of hinges with its particles.
+    struct Colour {
+        x: Vec<DVec3>,
+        w: Vec<f64>,
+        ids: Vec<[u32; 4]>,
+        rest: Vec<f64>,
+        lambda: Vec<f64>,
+    }
+
+    /// A colour kernel's signature: [`project_hinges_one_by_one`] or [`project_hinge_colour`].
+    type Kernel =
+        unsafe fn(SharedArray<DVec3>, &[f64], &[[u32; 4]], &[f64], &mut [f64], HingeTerms) -> u64;
+
+    /// What a pass leaves: the positions' and multipliers' bits and the skip count.
+    type Outcome = (Vec<[u64; 3]>, Vec<u64>, u64);
+
+    fn bits(x: &[DVec3]) -> Vec<[u64; 3]> {
+        x.iter()
+            .map(|p| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()])
+            .collect()
+    }
+
+    impl Colour {
+        /// The positions, multipliers and skip count after `kernel` projects every hinge
+        /// once, from copies of `x` and `lambda`.
+        fn pass(&self, kernel: Kernel, terms: HingeTerms) -> Outcome {
+            let (mut x, mut lambda) = (self.x.clone(), self.lambda.clone());
+            // SAFETY: every index is below the number of particles, the four of a hinge are
+            // distinct, no two hinges share a particle, and one thread owns the arrays.
+            let skipped = unsafe {
+                kernel(
+                    SharedArray::new(&mut x),
+                    &self.w,
+                    &self.ids,
+                    &self.rest,
+                    &mut lambda,
+                    terms,
+                )
+            };
+            let lambda = lambda.iter().map(|l| l.to_bits()).collect();
+            (bits(&x), lambda, skipped)
+        }
+    }
+
+    /// A hinge with signed angle `phi` about an axis of length `len` from `o` along `u`, wings
+    /// at heights `hk`, `hl` (as the dihedral tests build them), all scaled by `scale`.
+    fn hinge(rng: &mut Rng, phi: f64, scale: f64) -> [DVec3; 4] {
+        let o = rng.vec3(1.0) * scale;
+        let (u, v) = rng.frame();
+        let len = rng.range(0.2, 2.0) * scale;
+        let (sk, hk) = (rng.range(-0.5, 1.5), rng.range(0.2, 1.5) * scale);
+        let (sl, hl) = (rng.range(-0.5, 1.5), rng.range(0.2, 1.5) * scale);
+        let n = u.cross(v);
+        let l_dir = -(v * phi.cos()) - n * phi.sin();
+        [
+            o,
+            o + u * len,
+            o + u * (sk * len) + v * hk,
+            o + u * (sl * len) + l_dir * hl,
+        ]
+    }
+
+    /// 4,003 hinges on 16,012 particles (one colour: no particle shared, and a tail of 3 for
+    /// the one-hinge kernel), with random shapes, rest angles, inverse masses and multipliers,
+    /// and every case the kernels treat apart: flat, near flat, folded to ±π and near it
+    /// (wrapping both ways), all four points coincident, a zero-length or too short axis, a
+    /// zero-area wing or one just at the height limit, NaN and infinite positions, sizes whose
+    /// squares overflow, negative zeros, two or all inverse masses zero, a NaN one, subnormal ones.
+    fn colour(rng: &mut Rng) -> Colour {
+        let hinges = 4003;
+        let particles = 4 * hinges;
+        let mut x = vec![DVec3::ZERO; particles];
+        let mut w: Vec<f64> = (0..particles).map(|_| rng.inv_mass()).collect();
+        // Hinge k takes the particles 4 (p k mod 4003) + r for the prime p = 7919, a
+        // permutation (4,003 is prime), so its four are scattered over the array.
+        let ids: Vec<[u32; 4]> = (0..hinges as u32)
+            .map(|k| {
+                let b = 4 * (k * 7919 % hinges as u32);
+                [b + 2, b, b + 3, b + 1]
+            })
+            .collect();
+        let mut rest = Vec::with_capacity(hinges);
+        let lambda = (0..hinges).map(|_| rng.range(-1e-4, 1e-4)).collect();
+        for (k, ids) in ids.iter().enumerate() {
+            let case = k % 23;
+            let phi = match case {
+                0 => 0.0,
+                1 => rng.range(-1e-9, 1e-9),
+                2 => PI,
+                3 => -PI + rng.range(0.0, 1e-9),
+                4 => PI - rng.range(0.0, 1e-9),
+                _ => rng.range(-PI, PI),
+            };
+            let scale = match case {
+                5 => 1e-12, // heights and axis about the limits
+                6 => 1e77,  // squares finite, the normals' squares not
+                7 => 1e150, // the axis' square overflows
+                _ => 1.0,
+            };
+            let mut p = hinge(rng, phi, scale);
+            let [i, j, kk, l] = ids.map(|i| i as usize);
+            match case {
+                8 => p = [p[0]; 4],                                     // all coincident
+                9 => p[1] = p[0],                                       // zero-length axis
+                10 => p[2] = p[0] + (p[1] - p[0]) * 0.37,               // zero-area wing k
+                11 => p[3] = p[1] + (p[1] - p[0]) * 2.0,                // wing l on the axis
+                12 => p[3].y = f64::NAN,                                // a NaN position
+                13 => p[0].z = f64::INFINITY,                           // an infinite one
+                14 => (w[i], w[j], w[kk], w[l]) = (0.0, 0.0, 0.0, 0.0), // all pinned
+                15 => (w[i], w[l]) = (0.0, 0.0),                        // two pinned
+                16 => w[kk] = f64::NAN,                                 // a NaN inverse mass
+                17 => p[1] = p[0] + (p[1] - p[0]) * 1e-13,              // axis just below the limit
+                18 => {
+                    // Negative zeros where the correction may be ±0.
+                    p[0] = DVec3::new(-0.0, 0.0, -0.0);
+                    w[i] = 0.0;
+                }
+                19 => {
+                    // Subnormal inverse masses: `delta_lambda`'s denominator below the
+                    // smallest normal number when rigid, so Δλ = 0.
+                    (w[i], w[j], w[kk], w[l]) = (1e-310, 1e-310, 1e-310, 1e-310);
+                }
+                _ => {}
+            }
+            for (r, q) in ids.iter().zip(p) {
+                x[*r as usize] = q;
+            }
+            // Rest angles across ±π from the current ones, exactly the current one, or any.
+            rest.push(match k % 7 {
+                0 => -phi.signum() * (PI - rng.range(0.0, 0.3)),
+                1 => crate::dihedral::dihedral_angle(&p).unwrap_or(0.5),
+                2 => PI,
+                _ => rng.range(-PI, PI),
+            });
+        }
+        let mut seen = vec![false; particles];
+        for &i in ids.iter().flatten() {
+            assert!(!seen[i as usize], "one colour");
+            seen[i as usize] = true;
+        }
+        Colour {
+            x,
+            w,
+            ids,
+            rest,
+            lambda,
+        }
+    }
+
+    /// The lanes run only where the processor has AVX2: elsewhere the test below compares the
+    /// one-hinge kernel with itself, and says so.
+    fn lanes_or_say_why_not() {
+        if !available() {
+            eprintln!("this processor has no AVX2: the four-lane kernel is not exercised");
+        }
+    }
+
+    #[test]
+    fn four_lanes_give_the_bits_of_the_one_hinge_kernel_on_colours_with_every_degenerate_case() {
+        lanes_or_say_why_not();
+        let mut rng = Rng(0xd1ed);
+        let h = 1.0 / 600.0;
+        // Rigid, stiff, cotton, silk, and so soft that `delta_lambda`'s denominator
+        // overflows (its guard then gives Δλ = 0, a correction of ±0).
+        for alpha in [0.0, 1e-2, 5e3, 1e5, 1e305] {
+            let terms = HingeTerms { alpha, h };
+            let c = colour(&mut rng);
+            let (x_one, lambda_one, skipped_one) = c.pass(project_hinges_one_by_one, terms);
+            let (x_four, lambda_four, skipped_four) = c.pass(project_hinge_colour, terms);
+            if alpha < 1e300 {
+                assert_ne!(x_one, bits(&c.x), "the pass moved particles");
+            }
+            assert!(skipped_one > 0 && (skipped_one as usize) < c.ids.len());
+            assert_eq!(skipped_one, skipped_four, "α = {alpha}");
+            for (k, (one, four)) in x_one.iter().zip(&x_four).enumerate() {
+                assert_eq!(one, four, "α = {alpha}, particle {k}");
+            }
+            for (k, (one, four)) in lambda_one.iter().zip(&lambda_four).enumerate() {
+                assert_eq!(one, four, "α = {alpha}, hinge {k}");
+            }
+        }
+    }
+
+    /// `atan2` of four lanes as [`crate::trig::atan2`] of each, through every branch: the
+    /// three ranges of the reduced argument, both swaps, all four quadrants, ±0, infinities
+    /// and NaN (NaN compared as NaN, whatever its payload).
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn four_lane_atan2_gives_the_bits_of_the_one_lane_atan2() {
+        use std::arch::x86_64::{_mm256_loadu_pd, _mm256_storeu_pd};
+        lanes_or_say_why_not();
+        if !available() {
+            return;
+        }
+        let mut rng = Rng(0xa7a2);
+        let special = [
+            0.0,
+            -0.0,
+            1.0,
+            -1.0,
+            f64::INFINITY,
+            -f64::INFINITY,
+            f64::NAN,
+            1e-310,
+        ];
+        let mut args = Vec::new();
+        for &y in &special {
+            for &x in &special {
+                args.push((y, x));
+            }
+        }
+        for k in 0..400_000 {
+            let x = 10f64.powf(rng.range(-20.0, 20.0)) * if k % 2 == 0 { 1.0 } else { -1.0 };
+            // Ratios |y/x| through every branch of the reduction and their boundaries.
+            let t = match k % 5 {
+                0 => rng.range(0.0, 0.66),
+                1 => rng.range(0.66, 1.0),
+                2 => rng.range(1.0, 2.5),
+                3 => 10f64.powf(rng.range(0.0, 20.0)),
+                _ => [0.66, 1.0, crate::trig::T3P8][k % 3] * rng.range(1.0 - 1e-15, 1.0 + 1e-15),
+            };
+            let y = x * t * if k % 3 == 0 { -1.0 } else { 1.0 };
+            args.push((y, x));
+        }
+        for four in args.chunks_exact(4) {
+            let (y, x): (Vec<f64>, Vec<f64>) = four.iter().copied().unzip();
+            let mut out = [0.0; 4];
+            // SAFETY: AVX2 is present (checked above); four values in and out.
+            unsafe {
+                let a = avx2::atan2(_mm256_loadu_pd(y.as_ptr()), _mm256_loadu_pd(x.as_ptr()));
+                _mm256_storeu_pd(out.as_mut_ptr(), a);
+            }
+            for l in 0..4 {
+                let one = crate::trig::atan2(y[l], x[l]);
+                assert!(
+                    one.to_bits() == out[l].to_bits() || (one.is_nan() && out[l].is_nan()),
+                    "atan2({}, {}): {one} vs {}",
+                    y[l],
+                    x[l],
+                    out[l]
+                );
+            }
+        }
+    }
+}
