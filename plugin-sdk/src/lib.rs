@@ -69,6 +69,7 @@
 pub mod abi;
 pub mod colour;
 pub mod group;
+pub mod lanes;
 pub mod params;
 pub mod team;
 pub mod testing;

@@ -28,6 +28,9 @@
 //! operations per hinge, and the processor's reorder window holds few hinges at once; the
 //! lanes do each operation for four. Measured in the crate docs' "Cost" section.
 //!
+//! The lanes' loads, stores and `DVec3` arithmetic are the SDK's [`nucleus_sdk::lanes`]; the
+//! operations only this kernel needs (`cross`, `atan2`, ...) are here.
+//!
 //! [`project_dihedral`]: crate::dihedral::project_dihedral
 //! [`xpbd_correction`]: crate::step::xpbd_correction
 //! [`atan2`]: crate::trig::atan2
@@ -35,23 +38,11 @@
 //! [`delta_lambda`]: nucleus_sdk::xpbd::delta_lambda
 
 use glam::DVec3;
+#[cfg(any(test, target_arch = "x86_64"))]
+use nucleus_sdk::lanes::avx2_available;
 use nucleus_sdk::team::SharedArray;
 
 use crate::dihedral::project_dihedral;
-
-/// Whether this processor runs the four-lane kernel (checked once by the standard library, then
-/// cached by it). On processors other than x86_64 it is always false, and only the tests ask.
-#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
-pub(crate) fn available() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx2")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}
 
 /// What every hinge of a pass shares: the compliance `alpha` (rad/(N·m)) and the substep `h`
 /// (s).
@@ -101,10 +92,12 @@ pub(crate) unsafe fn project_hinges_one_by_one(
 
 /// Projects the hinges `ids[k]` of one colour (no two share a particle), in order, as
 /// [`project_hinges_one_by_one`] does and with its bits, four at a time where the processor
-/// can ([`available`]). Returns how many hinges were skipped.
+/// can ([`avx2_available`]). Returns how many hinges were skipped.
 ///
 /// # Safety
 /// As [`project_hinges_one_by_one`], and no two of the hinges share a particle.
+///
+/// [`avx2_available`]: nucleus_sdk::lanes::avx2_available
 pub(crate) unsafe fn project_hinge_colour(
     x: SharedArray<DVec3>,
     w: &[f64],
@@ -114,7 +107,7 @@ pub(crate) unsafe fn project_hinge_colour(
     terms: HingeTerms,
 ) -> u64 {
     #[cfg(target_arch = "x86_64")]
-    if rest.len() == ids.len() && lambda.len() == ids.len() && available() {
+    if rest.len() == ids.len() && lambda.len() == ids.len() && avx2_available() {
         let whole = ids.len() / 4 * 4;
         let (four, left) = lambda.split_at_mut(whole);
         // SAFETY: AVX2 is present (checked above); the rest is the caller's contract.
@@ -132,76 +125,11 @@ mod avx2 {
     use std::arch::x86_64::*;
     use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI, TAU};
 
+    use nucleus_sdk::lanes::avx2::{add, dot, load, moved, neg, scale, select, store, sub, Lanes3};
+
     use super::*;
     use crate::dihedral::MIN_LENGTH;
     use crate::trig::{MOREBITS, P, Q, T3P8, UNREDUCED_MAX};
-
-    /// Three coordinates of four points, one register each.
-    #[derive(Clone, Copy)]
-    struct Lanes3 {
-        x: __m256d,
-        y: __m256d,
-        z: __m256d,
-    }
-
-    /// Loads the points `p[k[0]]..p[k[3]]` into lanes 0..3: each point's `x, y` as one 16-byte
-    /// load, interleaved by two unpacks, and the four `z` one by one.
-    ///
-    /// # Safety
-    /// Every `k[l]` indexes a point of `p`, valid to read; AVX2 is present.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    unsafe fn load(p: *const DVec3, k: [usize; 4]) -> Lanes3 {
-        // SAFETY: the caller's contract; a `DVec3` is three `f64` in a row (`repr(C)`).
-        let [a, b, c, d] = k.map(|k| unsafe { p.add(k) as *const f64 });
-        // SAFETY: as above, reading the first two and the third double of each point.
-        unsafe {
-            let ac = _mm256_set_m128d(_mm_loadu_pd(c), _mm_loadu_pd(a));
-            let bd = _mm256_set_m128d(_mm_loadu_pd(d), _mm_loadu_pd(b));
-            Lanes3 {
-                x: _mm256_unpacklo_pd(ac, bd),
-                y: _mm256_unpackhi_pd(ac, bd),
-                z: _mm256_setr_pd(*a.add(2), *b.add(2), *c.add(2), *d.add(2)),
-            }
-        }
-    }
-
-    /// Writes lanes 0..3 to the points `p[k[0]]..p[k[3]]`: each point's `x, y` as one 16-byte
-    /// store after two unpacks, and its `z` alone.
-    ///
-    /// # Safety
-    /// Every `k[l]` indexes a point of `p`, valid to write, that no other thread touches; AVX2
-    /// is present.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    unsafe fn store(p: *mut DVec3, k: [usize; 4], v: &Lanes3) {
-        // SAFETY: the caller's contract; a `DVec3` is three `f64` in a row (`repr(C)`).
-        let [a, b, c, d] = k.map(|k| unsafe { p.add(k) as *mut f64 });
-        let ac = _mm256_unpacklo_pd(v.x, v.y); // xa ya xc yc
-        let bd = _mm256_unpackhi_pd(v.x, v.y); // xb yb xd yd
-        let (z_ab, z_cd) = (_mm256_castpd256_pd128(v.z), _mm256_extractf128_pd::<1>(v.z));
-        // SAFETY: as above, writing the first two and the third double of each point.
-        unsafe {
-            _mm_storeu_pd(a, _mm256_castpd256_pd128(ac));
-            _mm_storeu_pd(b, _mm256_castpd256_pd128(bd));
-            _mm_storeu_pd(c, _mm256_extractf128_pd::<1>(ac));
-            _mm_storeu_pd(d, _mm256_extractf128_pd::<1>(bd));
-            _mm_storel_pd(a.add(2), z_ab);
-            _mm_storeh_pd(b.add(2), z_ab);
-            _mm_storel_pd(c.add(2), z_cd);
-            _mm_storeh_pd(d.add(2), z_cd);
-        }
-    }
-
-    /// `((a.x b.x) + (a.y b.y)) + (a.z b.z)`, as [`DVec3::dot`] rounds it.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn dot(a: &Lanes3, b: &Lanes3) -> __m256d {
-        _mm256_add_pd(
-            _mm256_add_pd(_mm256_mul_pd(a.x, b.x), _mm256_mul_pd(a.y, b.y)),
-            _mm256_mul_pd(a.z, b.z),
-        )
-    }
 
     /// `a × b` as [`DVec3::cross`] rounds it: `(a.y b.z − b.y a.z, a.z b.x − b.z a.x,
     /// a.x b.y − b.x a.y)` (each product is commutative, so only the differences' order
@@ -214,45 +142,6 @@ mod avx2 {
             y: _mm256_sub_pd(_mm256_mul_pd(a.z, b.x), _mm256_mul_pd(b.z, a.x)),
             z: _mm256_sub_pd(_mm256_mul_pd(a.x, b.y), _mm256_mul_pd(b.x, a.y)),
         }
-    }
-
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn sub(a: &Lanes3, b: &Lanes3) -> Lanes3 {
-        Lanes3 {
-            x: _mm256_sub_pd(a.x, b.x),
-            y: _mm256_sub_pd(a.y, b.y),
-            z: _mm256_sub_pd(a.z, b.z),
-        }
-    }
-
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn add(a: &Lanes3, b: &Lanes3) -> Lanes3 {
-        Lanes3 {
-            x: _mm256_add_pd(a.x, b.x),
-            y: _mm256_add_pd(a.y, b.y),
-            z: _mm256_add_pd(a.z, b.z),
-        }
-    }
-
-    /// `a s`, as `DVec3 * f64` rounds it.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn scale(a: &Lanes3, s: __m256d) -> Lanes3 {
-        Lanes3 {
-            x: _mm256_mul_pd(a.x, s),
-            y: _mm256_mul_pd(a.y, s),
-            z: _mm256_mul_pd(a.z, s),
-        }
-    }
-
-    /// `−v`: the sign bit flipped, as Rust's negation does (not `0 − v`, which gives `+0` for
-    /// `+0`).
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn neg(v: __m256d) -> __m256d {
-        _mm256_xor_pd(v, _mm256_set1_pd(-0.0))
     }
 
     #[inline]
@@ -284,25 +173,6 @@ mod avx2 {
     #[target_feature(enable = "avx2")]
     fn finite3(a: &Lanes3) -> __m256d {
         _mm256_and_pd(_mm256_and_pd(finite(a.x), finite(a.y)), finite(a.z))
-    }
-
-    /// `keep ? a : b`, lane by lane (`keep` all ones or all zeros per lane).
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn select(keep: __m256d, a: __m256d, b: __m256d) -> __m256d {
-        _mm256_blendv_pd(b, a, keep)
-    }
-
-    /// `p + d` lane by lane where `apply`, else `p` unchanged.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn moved(p: &Lanes3, d: &Lanes3, apply: __m256d) -> Lanes3 {
-        let to = add(p, d);
-        Lanes3 {
-            x: select(apply, to.x, p.x),
-            y: select(apply, to.y, p.y),
-            z: select(apply, to.z, p.z),
-        }
     }
 
     /// [`atan_nonnegative`](crate::trig) of four lanes: each lane's branch picks the
@@ -674,7 +544,7 @@ mod tests {
     /// The lanes run only where the processor has AVX2: elsewhere the test below compares the
     /// one-hinge kernel with itself, and says so.
     fn lanes_or_say_why_not() {
-        if !available() {
+        if !avx2_available() {
             eprintln!("this processor has no AVX2: the four-lane kernel is not exercised");
         }
     }
@@ -713,7 +583,7 @@ mod tests {
     fn four_lane_atan2_gives_the_bits_of_the_one_lane_atan2() {
         use std::arch::x86_64::{_mm256_loadu_pd, _mm256_storeu_pd};
         lanes_or_say_why_not();
-        if !available() {
+        if !avx2_available() {
             return;
         }
         let mut rng = Rng(0xa7a2);

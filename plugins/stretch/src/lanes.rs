@@ -12,27 +12,17 @@
 //! window holds few edges at once; the lanes do each operation for four edges. Measured in the
 //! crate docs' "Cost" section: the hard pass 1.5× faster, the compliant one 2.2×.
 //!
+//! The lanes' loads, stores and arithmetic are the SDK's [`nucleus_sdk::lanes`].
+//!
 //! [`project_distance_hard`]: crate::distance::project_distance_hard
 //! [`project_distance_with`]: crate::distance::project_distance_with
 
 use glam::DVec3;
+#[cfg(any(test, target_arch = "x86_64"))]
+use nucleus_sdk::lanes::avx2_available;
 use nucleus_sdk::team::SharedArray;
 
 use crate::distance::{project_distance_hard, project_distance_with, Correction, XpbdTerms};
-
-/// Whether this processor runs the four-lane kernel (checked once by the standard library, then
-/// cached by it). On processors other than x86_64 it is always false, and only the tests ask.
-#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
-pub(crate) fn available() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx2")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}
 
 /// Projects the edges `ids[k]` in order, one at a time, each moved by the correction
 /// `project(k, positions, start positions, inverse masses, rest length)` returns.
@@ -87,11 +77,13 @@ pub(crate) unsafe fn project_edges_hard_one_by_one(
 }
 
 /// Projects the hard edges `ids[k]` of one colour (no two share a particle), in order, four at
-/// a time where the processor can ([`available`]), with the same bits as
+/// a time where the processor can ([`avx2_available`]), with the same bits as
 /// [`project_edges_hard_one_by_one`].
 ///
 /// # Safety
 /// As [`each_edge`], and no two of the edges share a particle.
+///
+/// [`avx2_available`]: nucleus_sdk::lanes::avx2_available
 pub(crate) unsafe fn project_colour_hard(
     x: SharedArray<DVec3>,
     x0: &[DVec3],
@@ -100,7 +92,7 @@ pub(crate) unsafe fn project_colour_hard(
     rest: &[f64],
 ) {
     #[cfg(target_arch = "x86_64")]
-    if x0.len() == w.len() && available() {
+    if x0.len() == w.len() && avx2_available() {
         let whole = ids.len() / 4 * 4;
         // SAFETY: AVX2 is present (checked above); the rest is the caller's contract.
         unsafe {
@@ -138,11 +130,13 @@ pub(crate) unsafe fn project_edges_compliant_one_by_one(
 }
 
 /// Projects the compliant edges `ids[k]` of one colour, in order, accumulating each edge's
-/// multiplier in `lambda[k]`, four at a time where the processor can ([`available`]), with the
-/// same bits as [`project_edges_compliant_one_by_one`].
+/// multiplier in `lambda[k]`, four at a time where the processor can ([`avx2_available`]),
+/// with the same bits as [`project_edges_compliant_one_by_one`].
 ///
 /// # Safety
 /// As [`project_colour_hard`].
+///
+/// [`avx2_available`]: nucleus_sdk::lanes::avx2_available
 pub(crate) unsafe fn project_colour_compliant(
     x: SharedArray<DVec3>,
     x0: &[DVec3],
@@ -153,7 +147,7 @@ pub(crate) unsafe fn project_colour_compliant(
     terms: &XpbdTerms,
 ) {
     #[cfg(target_arch = "x86_64")]
-    if x0.len() == w.len() && lambda.len() == ids.len() && available() {
+    if x0.len() == w.len() && lambda.len() == ids.len() && avx2_available() {
         let whole = ids.len() / 4 * 4;
         let (four, left) = lambda.split_at_mut(whole);
         // SAFETY: AVX2 is present (checked above); the rest is the caller's contract.
@@ -179,107 +173,10 @@ pub(crate) unsafe fn project_colour_compliant(
 mod avx2 {
     use std::arch::x86_64::*;
 
+    use nucleus_sdk::lanes::avx2::{dot, load, moved, neg, scale, select3, store, sub, Lanes3};
+
     use super::*;
     use crate::distance::{MIN_LENGTH, START_DIRECTION_MIN_COS};
-
-    /// Three coordinates of four particles, one register each.
-    struct Lanes3 {
-        x: __m256d,
-        y: __m256d,
-        z: __m256d,
-    }
-
-    /// Loads the points `p[k[0]]..p[k[3]]` into lanes 0..3: each point's `x, y` as one 16-byte
-    /// load, interleaved by two unpacks, and the four `z` one by one.
-    ///
-    /// # Safety
-    /// Every `k[l]` indexes a point of `p`, valid to read; AVX2 is present.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    unsafe fn load(p: *const DVec3, k: [usize; 4]) -> Lanes3 {
-        // SAFETY: the caller's contract; a `DVec3` is three `f64` in a row (`repr(C)`).
-        let [a, b, c, d] = k.map(|k| unsafe { p.add(k) as *const f64 });
-        // SAFETY: as above, reading the first two and the third double of each point.
-        unsafe {
-            let ac = _mm256_set_m128d(_mm_loadu_pd(c), _mm_loadu_pd(a));
-            let bd = _mm256_set_m128d(_mm_loadu_pd(d), _mm_loadu_pd(b));
-            Lanes3 {
-                x: _mm256_unpacklo_pd(ac, bd),
-                y: _mm256_unpackhi_pd(ac, bd),
-                z: _mm256_setr_pd(*a.add(2), *b.add(2), *c.add(2), *d.add(2)),
-            }
-        }
-    }
-
-    /// `((a.x b.x) + (a.y b.y)) + (a.z b.z)`, as [`DVec3::dot`] rounds it.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn dot(a: &Lanes3, b: &Lanes3) -> __m256d {
-        _mm256_add_pd(
-            _mm256_add_pd(_mm256_mul_pd(a.x, b.x), _mm256_mul_pd(a.y, b.y)),
-            _mm256_mul_pd(a.z, b.z),
-        )
-    }
-
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn sub(a: &Lanes3, b: &Lanes3) -> Lanes3 {
-        Lanes3 {
-            x: _mm256_sub_pd(a.x, b.x),
-            y: _mm256_sub_pd(a.y, b.y),
-            z: _mm256_sub_pd(a.z, b.z),
-        }
-    }
-
-    /// `keep ? a : b`, lane by lane (`keep` all ones or all zeros per lane).
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn select(keep: __m256d, a: &Lanes3, b: &Lanes3) -> Lanes3 {
-        Lanes3 {
-            x: _mm256_blendv_pd(b.x, a.x, keep),
-            y: _mm256_blendv_pd(b.y, a.y, keep),
-            z: _mm256_blendv_pd(b.z, a.z, keep),
-        }
-    }
-
-    /// `p + s q` lane by lane, where the correction applies (`apply`), else `p` unchanged.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn moved(p: &Lanes3, s: __m256d, q: &Lanes3, apply: __m256d) -> Lanes3 {
-        let to = Lanes3 {
-            x: _mm256_add_pd(p.x, _mm256_mul_pd(s, q.x)),
-            y: _mm256_add_pd(p.y, _mm256_mul_pd(s, q.y)),
-            z: _mm256_add_pd(p.z, _mm256_mul_pd(s, q.z)),
-        };
-        select(apply, &to, p)
-    }
-
-    /// Writes lanes 0..3 to the points `p[k[0]]..p[k[3]]`: each point's `x, y` as one 16-byte
-    /// store after two unpacks, and its `z` alone.
-    ///
-    /// # Safety
-    /// Every `k[l]` indexes a point of `p`, valid to write, that no other thread touches; AVX2
-    /// is present.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    unsafe fn store(p: *mut DVec3, k: [usize; 4], v: &Lanes3) {
-        // SAFETY: the caller's contract; a `DVec3` is three `f64` in a row (`repr(C)`).
-        let [a, b, c, d] = k.map(|k| unsafe { p.add(k) as *mut f64 });
-        let ac = _mm256_unpacklo_pd(v.x, v.y); // xa ya xc yc
-        let bd = _mm256_unpackhi_pd(v.x, v.y); // xb yb xd yd
-        let (z_ab, z_cd) = (_mm256_castpd256_pd128(v.z), _mm256_extractf128_pd::<1>(v.z));
-        // SAFETY: as above, writing the first two and the third double of each point.
-        unsafe {
-            _mm_storeu_pd(a, _mm256_castpd256_pd128(ac));
-            _mm_storeu_pd(b, _mm256_castpd256_pd128(bd));
-            _mm_storeu_pd(c, _mm256_extractf128_pd::<1>(ac));
-            _mm_storeu_pd(d, _mm256_extractf128_pd::<1>(bd));
-            _mm_storel_pd(a.add(2), z_ab);
-            _mm_storeh_pd(b.add(2), z_ab);
-            _mm_storel_pd(c.add(2), z_cd);
-            _mm_storeh_pd(d.add(2), z_cd);
-        }
-    }
 
     /// What both kernels compute of four edges, as `distance::EdgeStep` does of one:
     /// the loaded particles, `d = xj − xi`, `|d|`, `wi`, `wj` and their sum, whether the edge can
@@ -345,7 +242,7 @@ mod avx2 {
                 _mm256_cmp_pd::<_CMP_GE_OQ>(de, _mm256_mul_pd(_mm256_mul_pd(min_cos, len), len0)),
             );
             Fours {
-                u: select(start_direction, &e0, &d),
+                u: select3(start_direction, &e0, &d),
                 du: _mm256_blendv_pd(_mm256_mul_pd(len, len), de, start_direction),
                 u_len: _mm256_blendv_pd(len, len0, start_direction),
                 ki,
@@ -372,15 +269,11 @@ mod avx2 {
     macro_rules! correct {
         ($p:expr, $e:expr, $s:expr, $apply:expr) => {{
             let (e, s, apply): (&Fours, __m256d, __m256d) = ($e, $s, $apply);
-            let step = Lanes3 {
-                x: _mm256_mul_pd(e.u.x, s),
-                y: _mm256_mul_pd(e.u.y, s),
-                z: _mm256_mul_pd(e.u.z, s),
-            };
-            // `−wi` by its sign bit, as the one-edge kernel negates (`0 − wi` gives +0 for 0).
-            let minus_wi = _mm256_xor_pd(e.wi, _mm256_set1_pd(-0.0));
-            let to_i = moved(&e.xi, minus_wi, &step, apply);
-            let to_j = moved(&e.xj, e.wj, &step, apply);
+            let step = scale(&e.u, s);
+            // `−wi` by its sign bit (`neg`), as the one-edge kernel negates (`0 − wi` gives +0
+            // for 0).
+            let to_i = moved(&e.xi, &scale(&step, neg(e.wi)), apply);
+            let to_j = moved(&e.xj, &scale(&step, e.wj), apply);
             store($p, e.ki, &to_i);
             store($p, e.kj, &to_j);
         }};
@@ -450,7 +343,7 @@ mod avx2 {
                 let gamma = _mm256_blendv_pd(stretched_gamma, compressed_gamma, compressed);
                 let lambda_in = _mm256_loadu_pd(lambda.as_ptr());
                 let c_lambda = _mm256_add_pd(c, _mm256_mul_pd(alpha, lambda_in));
-                let undamped = _mm256_mul_pd(_mm256_xor_pd(c_lambda, _mm256_set1_pd(-0.0)), e.len);
+                let undamped = _mm256_mul_pd(neg(c_lambda), e.len);
                 // The damper's term `γ d·((xj − x0j) − (xi − x0i))`, only where `γ > 0`.
                 let moved_by = sub(&sub(&e.xj, &e.x0j), &sub(&e.xi, &e.x0i));
                 let damped = _mm256_sub_pd(undamped, _mm256_mul_pd(gamma, dot(&e.d, &moved_by)));
@@ -613,7 +506,7 @@ mod tests {
     /// The lanes run only where the processor has AVX2: elsewhere the tests below compare the
     /// one-edge kernel with itself, and say so.
     fn lanes_or_say_why_not() {
-        if !available() {
+        if !avx2_available() {
             eprintln!("this processor has no AVX2: the four-lane kernels are not exercised");
         }
     }
