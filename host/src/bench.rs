@@ -46,6 +46,8 @@ pub struct BenchArgs {
     pub reference: Option<(u32, u32)>,
     /// Output directory.
     pub out: PathBuf,
+    /// Threads of the step's team (default: the simulation's, from `RAYON_NUM_THREADS`).
+    pub threads: Option<usize>,
     /// Print progress.
     pub quiet: bool,
 }
@@ -80,11 +82,20 @@ pub fn parse_list(s: &str) -> Result<Vec<u32>, String> {
     }
 }
 
-fn build(scene: &Scene, registry: &Registry, s: u32, i: u32) -> Result<Simulation, String> {
+fn build(
+    scene: &Scene,
+    registry: &Registry,
+    (s, i): (u32, u32),
+    threads: Option<usize>,
+) -> Result<Simulation, String> {
     let mut scene = scene.clone();
     scene.file.solver.substeps = s;
     scene.file.solver.iterations = i;
-    Simulation::build(&scene, registry).map_err(|e| e.to_string())
+    let mut sim = Simulation::build(&scene, registry).map_err(|e| e.to_string())?;
+    if let Some(t) = threads {
+        sim.threads = t;
+    }
+    Ok(sim)
 }
 
 fn total_energy(sim: &mut Simulation) -> Result<f64, String> {
@@ -103,8 +114,9 @@ fn reference_positions(
     registry: &Registry,
     (s, i): (u32, u32),
     frames: u32,
+    threads: Option<usize>,
 ) -> Result<Vec<Vec<[f64; 3]>>, String> {
-    let mut sim = build(scene, registry, s, i)?;
+    let mut sim = build(scene, registry, (s, i), threads)?;
     let mut out = Vec::with_capacity(frames as usize);
     for _ in 0..frames {
         sim.step_frame()
@@ -121,6 +133,7 @@ fn measure(
     frames: u32,
     repeats: u32,
     reference: &[Vec<[f64; 3]>],
+    threads: Option<usize>,
 ) -> Result<Row, String> {
     let mut times = Vec::new();
     let mut row = Row {
@@ -133,7 +146,7 @@ fn measure(
         failure: None,
     };
     for r in 0..repeats {
-        let mut sim = build(scene, registry, s, i)?;
+        let mut sim = build(scene, registry, (s, i), threads)?;
         let measure_errors = r == 0;
         let groups = sim.groups.len();
         let mut sums = vec![[0.0f64; 4]; groups];
@@ -354,8 +367,8 @@ pub fn run(args: &BenchArgs, registry: &Registry) -> Result<Vec<Row>, String> {
             reference.0, reference.1
         );
     }
-    let ref_x = reference_positions(&scene, registry, reference, frames)?;
-    let names: Vec<String> = build(&scene, registry, 1, 1)?
+    let ref_x = reference_positions(&scene, registry, reference, frames, args.threads)?;
+    let names: Vec<String> = build(&scene, registry, (1, 1), args.threads)?
         .groups
         .iter()
         .map(|g| g.name.clone())
@@ -370,6 +383,7 @@ pub fn run(args: &BenchArgs, registry: &Registry) -> Result<Vec<Row>, String> {
                 frames,
                 args.repeats.max(1),
                 &ref_x,
+                args.threads,
             )?;
             if !args.quiet {
                 eprintln!(

@@ -57,6 +57,10 @@ enum Command {
         /// Override any scene value: `--set objects.0.grid.resolution=[128,128]` (repeatable).
         #[arg(long = "set", value_name = "KEY=VALUE")]
         set: Vec<String>,
+        /// Threads of the step's team [default: RAYON_NUM_THREADS, else the machine's cores].
+        /// The output is bit-identical for every count.
+        #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=1024))]
+        threads: Option<u32>,
         /// Print plugins, groups and the schedule.
         #[arg(long, short)]
         verbose: bool,
@@ -93,6 +97,9 @@ enum Command {
         /// Override any scene value (repeatable), as for `run`.
         #[arg(long = "set", value_name = "KEY=VALUE")]
         set: Vec<String>,
+        /// Threads of the step's team, as for `run`.
+        #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=1024))]
+        threads: Option<u32>,
         /// Print nothing but errors.
         #[arg(long, short)]
         quiet: bool,
@@ -146,6 +153,7 @@ fn main() -> ExitCode {
             substeps,
             iterations,
             set,
+            threads,
             verbose,
             quiet,
             plugin_args,
@@ -156,6 +164,7 @@ fn main() -> ExitCode {
             substeps,
             iterations,
             set,
+            threads,
             verbose,
             quiet,
             plugin_args,
@@ -171,6 +180,7 @@ fn main() -> ExitCode {
             reference,
             out,
             set,
+            threads,
             quiet,
             plugin_args,
         } => (|| {
@@ -195,6 +205,7 @@ fn main() -> ExitCode {
                 repeats,
                 reference,
                 out,
+                threads: threads.map(|t| t as usize),
                 quiet,
             };
             let registry = discover(&plugin_args, quiet)?;
@@ -294,6 +305,7 @@ struct RunArgs {
     substeps: Option<u32>,
     iterations: Option<u32>,
     set: Vec<String>,
+    threads: Option<u32>,
     verbose: bool,
     quiet: bool,
     plugin_args: PluginArgs,
@@ -325,6 +337,9 @@ fn run(args: RunArgs) -> Result<(), Failure> {
     }
     let registry = discover(&args.plugin_args, args.quiet)?;
     let mut sim = Simulation::build(&scene, &registry).map_err(Failure::input)?;
+    if let Some(t) = args.threads {
+        sim.threads = t as usize;
+    }
     if args.verbose {
         let mut used: Vec<String> = sim
             .groups
@@ -401,11 +416,13 @@ fn run(args: RunArgs) -> Result<(), Failure> {
     bar.finish_and_clear();
     let residuals = sim.residuals().map_err(Failure::run)?;
     let mut summary = format!(
-        "{} frames, {} particles, {} groups; step {:.3} ms/frame; total {:.2} s",
+        "{} frames, {} particles, {} groups; step {:.3} ms/frame on {} thread{}; total {:.2} s",
         frames,
         sim.particles.len(),
         sim.groups.len(),
         1e3 * step_time / frames.max(1) as f64,
+        sim.threads,
+        if sim.threads == 1 { "" } else { "s" },
         started.elapsed().as_secs_f64()
     );
     for (g, r) in sim.groups.iter().zip(&residuals) {

@@ -106,6 +106,41 @@ fn one_and_two_threads_give_bit_identical_frames() {
 }
 
 #[test]
+fn the_threads_flag_sets_the_team_over_the_environment_with_the_same_bits() {
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/drape.toml");
+    let set = [
+        "--set",
+        "objects.0.grid.resolution=[96,96]",
+        "--frames",
+        "3",
+    ];
+    let with = |threads: &'static str| [&set[..], &["--threads", threads]].concat();
+    let a = run_with("flag-threads-2", scene, "1", &with("2"));
+    let b = run_with("flag-threads-1", scene, "2", &with("1"));
+    assert_same_frames(&a, &b, 3, "--threads 2 and --threads 1");
+    let summary = |dir: &std::path::Path| std::fs::read_to_string(dir.join("run.json")).unwrap();
+    assert!(
+        summary(&a).contains("ms/frame on 2 threads"),
+        "{}",
+        summary(&a)
+    );
+    assert!(
+        summary(&b).contains("ms/frame on 1 thread;"),
+        "{}",
+        summary(&b)
+    );
+    // No thread at all is refused before the run.
+    let out = temp_dir("flag-threads-0");
+    let status = Command::new(host_bin())
+        .args(["run", scene, "--quiet", "--threads", "0", "--out"])
+        .arg(&out)
+        .status()
+        .unwrap();
+    assert_eq!(status.code(), Some(2));
+    assert!(!out.join("run.json").exists());
+}
+
+#[test]
 fn in_process_runs_match_to_the_bit() {
     let text =
         std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/chain.toml"))
