@@ -42,7 +42,7 @@ enum Command {
     Run {
         /// The scene file (TOML).
         scene: PathBuf,
-        /// Output directory [default: out/<scene name>].
+        /// Output directory [default: out/STEM, STEM the scene file name without .toml].
         #[arg(long, value_name = "DIR")]
         out: Option<PathBuf>,
         /// Override the number of frames.
@@ -91,7 +91,7 @@ enum Command {
         /// The converged reference as SUBSTEPS,ITERATIONS [default: the finest combination].
         #[arg(long, value_name = "S,I")]
         reference: Option<String>,
-        /// Output directory [default: out/bench-<scene name>].
+        /// Output directory [default: out/bench-STEM, STEM the scene file name without .toml].
         #[arg(long, value_name = "DIR")]
         out: Option<PathBuf>,
         /// Override any scene value (repeatable), as for `run`.

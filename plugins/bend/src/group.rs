@@ -15,7 +15,7 @@ use serde::{Deserialize, Serialize};
 use crate::angle::{edge_angle, project_edge_angle};
 use crate::bergou2006_isometric::{curvature_vector, isometric_weights, project_isometric};
 use crate::dihedral::{dihedral_angle, project_dihedral, wrap_angle};
-use crate::lanes::{project_hinge_colour, HingeTerms};
+use crate::lanes::{project_angle_colour, project_hinge_colour, PassTerms};
 use crate::step::Correction;
 
 /// Which constraints a group holds; one per kind of this plugin.
@@ -435,8 +435,8 @@ type Colour<'a> = dyn Fn(SharedArray<DVec3>, SharedArray<f64>, Range<usize>) -> 
 /// its multiplier in `lambda[k]`; an independent batch of at least
 /// [`PARALLEL_MIN_CONSTRAINTS`] is split over `team` (see [`BendGroup::project`]). Each part
 /// of an independent batch (the whole batch when it is not split) goes to `colour` instead
-/// where one is given (the four-lane hinge kernel, [`crate::lanes`]). Returns how many were
-/// skipped.
+/// where one is given (the four-lane hinge or angle kernel, [`crate::lanes`]). Returns how
+/// many were skipped.
 ///
 /// # Safety
 /// Every index of `ids` is below `x.len()`, each constraint's indices are distinct, and the
@@ -516,12 +516,12 @@ impl ConstraintGroup for BendGroup {
     }
 
     /// One Gauss-Seidel pass: every hinge, then every angle, colour by colour
-    /// ([`colour_order`]). A colour of at least [`PARALLEL_MIN_CONSTRAINTS`] constraints is
+    /// (`colour_order`). A colour of at least `PARALLEL_MIN_CONSTRAINTS` (256) constraints is
     /// split into contiguous parts over the host's thread team (`ctx.team`): its constraints
     /// share no particle, so each reads and writes only its own, and the bits are the same on
-    /// any thread count. Dihedral hinges of a colour go four at a time through AVX2's lanes
-    /// where the processor has them (the `lanes` module), with the same bits. Deterministic, no
-    /// allocation.
+    /// any thread count. Dihedral hinges and angles of a colour go four at a time through
+    /// AVX2's lanes where the processor has them (the `lanes` module), with the same bits.
+    /// Deterministic, no allocation.
     fn project(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
         let (h, team) = (ctx.substep_length()?, ctx.team);
         ctx.check_holds(self.max_index)?;
@@ -536,7 +536,7 @@ impl ConstraintGroup for BendGroup {
         let mut skipped = match self.quad_model {
             QuadModel::Dihedral => {
                 let rest = &self.quad_rest[..];
-                let terms = HingeTerms { alpha, h };
+                let terms = PassTerms { alpha, h };
                 // Four hinges at a time where the processor can, with the same bits.
                 let colour =
                     |xs: SharedArray<DVec3>, lambdas: SharedArray<f64>, r: Range<usize>| {
@@ -583,18 +583,29 @@ impl ConstraintGroup for BendGroup {
                 }
             }
         };
-        let rest = &self.triple_rest[..];
+        let (triples, rest) = (&self.triples[..], &self.triple_rest[..]);
+        let terms = PassTerms { alpha, h };
+        // Four angles at a time where the processor can, with the same bits.
+        let colour = |xs: SharedArray<DVec3>, lambdas: SharedArray<f64>, r: Range<usize>| {
+            // SAFETY: as for the hinges: a range of `triples` (and of `rest` and of the
+            // multipliers) that `project_batches` owns, of a batch whose angles share no
+            // particle, with indices in bounds and distinct within each angle.
+            unsafe {
+                let lambda = lambdas.slice(r.start, r.len());
+                project_angle_colour(xs, w, &triples[r.clone()], &rest[r], lambda, terms)
+            }
+        };
         // SAFETY: the contract, as said above.
         skipped += unsafe {
             project_batches(
                 team,
                 x,
                 w,
-                &self.triples,
+                triples,
                 &mut self.triple_lambda,
                 &self.triple_batches,
                 &|k, xs, ws, lambda| project_edge_angle(xs, ws, rest[k], alpha, lambda, h),
-                None,
+                Some(&colour),
             )
         };
         self.skipped = skipped;

@@ -1,37 +1,47 @@
-//! The dihedral hinge pass four hinges at a time, in the processor's 256-bit lanes (AVX2),
-//! where the processor has them: the same arithmetic as [`project_dihedral`], operation for
-//! operation and in the same order (no fused multiply-add, whose single rounding would differ),
-//! so every position, multiplier and skip comes out with the same bits as the one-hinge kernel.
-//! The four hinges of a lane group are consecutive hinges of one colour, so they share no
-//! particle: their corrections are computed together and written back one by one. The hinges
-//! left over after the last group of four, those of a batch whose hinges may share particles,
-//! and every hinge on a processor without AVX2 take the one-hinge kernel.
+//! The dihedral hinge pass and the edge-angle pass four constraints at a time, in the
+//! processor's 256-bit lanes (AVX2), where the processor has them: the same arithmetic as
+//! [`project_dihedral`] and [`project_edge_angle`], operation for operation and in the same
+//! order (no fused multiply-add, whose single rounding would differ), so every position,
+//! multiplier and skip comes out with the same bits as the one-at-a-time kernel. The four
+//! constraints of a lane group are consecutive constraints of one colour, so they share no
+//! particle: their corrections are computed together and written back one by one. The
+//! constraints left over after the last group of four, those of a batch whose constraints may
+//! share particles, and every constraint on a processor without AVX2 take the one-at-a-time
+//! kernel.
 //!
-//! The one-hinge kernel branches on data in four places, and the lanes compute every branch
-//! and keep, lane by lane, the value the branch taken would give:
+//! The one-at-a-time kernels branch on data, and the lanes compute every branch and keep, lane
+//! by lane, the value the branch taken would give:
 //!
-//! * the degenerate hinges ([`crate::dihedral`]'s `hinge` and the finiteness of `φ` and of the
-//!   gradient) and [`xpbd_correction`]'s weighted gradient norm: a lane that the one-hinge
-//!   kernel skips is computed through (NaN, infinities and divisions by zero do no harm in a
-//!   lane) and then neither moved nor given a multiplier, and counted as skipped;
+//! * the degenerate constraints and [`xpbd_correction`]'s weighted gradient norm: a lane that
+//!   the one-at-a-time kernel skips is computed through (NaN, infinities and divisions by zero
+//!   do no harm in a lane) and then neither moved nor given a multiplier, and counted as
+//!   skipped. For a hinge, [`crate::dihedral`]'s `hinge` tests and the finiteness of `φ` and
+//!   of the gradient; for an angle, [`edge_angle_gradient`]'s: an edge shorter than
+//!   `MIN_LENGTH`, collinear edges (`|a × b|² < MIN_SIN² |a|² |b|²` or NaN), and the
+//!   finiteness of `φ` and of the gradient;
 //! * [`atan2`]: the swap `|y| ≤ |x|`, the range reduction (`t > tan 3π/8`, `t ≤ 0.66`, else)
 //!   as a choice of numerator, denominator and constants before one division, `x < 0`,
 //!   `copysign`, and `(0, 0)` giving `+0`;
-//! * [`wrap_angle`]: both wrapped values, kept by the two comparisons;
+//! * [`wrap_angle`] (hinges only): both wrapped values, kept by the two comparisons;
 //! * [`delta_lambda`]'s guard on the denominator: `+0` where it returns `0.0`, and the
 //!   correction still applied then (it may turn a `−0` coordinate into `+0`, as the scalar
 //!   code does).
 //!
-//! Why: within a colour the hinges are independent, but the one-hinge kernel is a long chain
-//! of dependent operations (three cross products, a square root, two divisions in `atan2` and
-//! one for the gradient, the rational polynomial of `atan`), some hundred and forty
-//! operations per hinge, and the processor's reorder window holds few hinges at once; the
-//! lanes do each operation for four. Measured in the crate docs' "Cost" section.
+//! Why: within a colour the constraints are independent, but the one-at-a-time kernel is a
+//! long chain of dependent operations (for a hinge three cross products, a square root, two
+//! divisions in `atan2` and one for the gradient, the rational polynomial of `atan`: some
+//! hundred and forty operations; for an angle three cross products, a square root and the same
+//! `atan2`, some hundred), and the processor's reorder window holds few constraints at once;
+//! the lanes do each operation for four, and take no branch on the data (the one-at-a-time
+//! `atan2` mispredicts often). Measured in the crate docs' "Cost" section: 3–4.5× per pass.
 //!
 //! The lanes' loads, stores and `DVec3` arithmetic are the SDK's [`nucleus_sdk::lanes`]; the
-//! operations only this kernel needs (`cross`, `atan2`, ...) are here.
+//! operations only these kernels need (`cross`, `atan2`, ...) and the end both share (the XPBD
+//! step and the write-back) are here.
 //!
 //! [`project_dihedral`]: crate::dihedral::project_dihedral
+//! [`project_edge_angle`]: crate::angle::project_edge_angle
+//! [`edge_angle_gradient`]: crate::angle::edge_angle_gradient
 //! [`xpbd_correction`]: crate::step::xpbd_correction
 //! [`atan2`]: crate::trig::atan2
 //! [`wrap_angle`]: crate::dihedral::wrap_angle
@@ -42,14 +52,59 @@ use glam::DVec3;
 use nucleus_sdk::lanes::avx2_available;
 use nucleus_sdk::team::SharedArray;
 
+use crate::angle::project_edge_angle;
 use crate::dihedral::project_dihedral;
+use crate::step::Correction;
 
-/// What every hinge of a pass shares: the compliance `alpha` (rad/(N·m)) and the substep `h`
-/// (s).
+/// What every constraint of a pass shares: the compliance `alpha` (rad/(N·m)) and the substep
+/// `h` (s).
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct HingeTerms {
+pub(crate) struct PassTerms {
     pub alpha: f64,
     pub h: f64,
+}
+
+/// Projects the constraints `ids[k]` in order, one at a time, with `kernel` (`(positions,
+/// inverse masses, rest, alpha, λ, h)` to a correction, `None` to skip: [`project_dihedral`],
+/// [`project_edge_angle`]) towards `rest[k]`, accumulating each one's multiplier in
+/// `lambda[k]`. Returns how many were skipped.
+///
+/// # Safety
+/// `x` points to more positions than the largest index of `ids`, valid for the duration of the
+/// call; each constraint's indices are distinct; no other thread reads or writes the positions
+/// of these constraints' particles meanwhile.
+#[inline]
+unsafe fn project_one_by_one<const N: usize, K>(
+    x: SharedArray<DVec3>,
+    w: &[f64],
+    ids: &[[u32; N]],
+    rest: &[f64],
+    lambda: &mut [f64],
+    terms: PassTerms,
+    kernel: K,
+) -> u64
+where
+    K: Fn(&[DVec3; N], &[f64; N], f64, f64, f64, f64) -> Option<Correction<N>>,
+{
+    let mut skipped = 0;
+    for ((c, &rest), lambda) in ids.iter().zip(rest).zip(lambda) {
+        let ws = c.map(|i| w[i as usize]);
+        // SAFETY: the caller's contract: every index is in bounds, the `N` are distinct and
+        // no other thread touches them.
+        unsafe {
+            let pos = c.map(|i| *x.at(i as usize));
+            match kernel(&pos, &ws, rest, terms.alpha, *lambda, terms.h) {
+                Some(correction) => {
+                    for (&i, dx) in c.iter().zip(&correction.dx) {
+                        *x.at(i as usize) += *dx;
+                    }
+                    *lambda += correction.delta_lambda;
+                }
+                None => skipped += 1,
+            }
+        }
+    }
+    skipped
 }
 
 /// Projects the hinges `ids[k]` in order, one at a time, with [`project_dihedral`] towards
@@ -67,27 +122,29 @@ pub(crate) unsafe fn project_hinges_one_by_one(
     ids: &[[u32; 4]],
     rest: &[f64],
     lambda: &mut [f64],
-    terms: HingeTerms,
+    terms: PassTerms,
 ) -> u64 {
-    let mut skipped = 0;
-    for ((c, &rest), lambda) in ids.iter().zip(rest).zip(lambda) {
-        let ws = c.map(|i| w[i as usize]);
-        // SAFETY: the caller's contract: every index is in bounds, the four are distinct and
-        // no other thread touches them.
-        unsafe {
-            let pos = c.map(|i| *x.at(i as usize));
-            match project_dihedral(&pos, &ws, rest, terms.alpha, *lambda, terms.h) {
-                Some(correction) => {
-                    for (&i, dx) in c.iter().zip(&correction.dx) {
-                        *x.at(i as usize) += *dx;
-                    }
-                    *lambda += correction.delta_lambda;
-                }
-                None => skipped += 1,
-            }
-        }
-    }
-    skipped
+    // SAFETY: the caller's contract.
+    unsafe { project_one_by_one(x, w, ids, rest, lambda, terms, project_dihedral) }
+}
+
+/// Projects the angles `ids[k]` (`[i, j, k]`, the angle at `j`) in order, one at a time, with
+/// [`project_edge_angle`] towards `rest[k]`, accumulating each angle's multiplier in
+/// `lambda[k]`: the reference the four-lane kernel must match bit for bit, and its fallback.
+/// Returns how many angles were skipped.
+///
+/// # Safety
+/// As [`project_hinges_one_by_one`], for angles of three distinct particles.
+pub(crate) unsafe fn project_angles_one_by_one(
+    x: SharedArray<DVec3>,
+    w: &[f64],
+    ids: &[[u32; 3]],
+    rest: &[f64],
+    lambda: &mut [f64],
+    terms: PassTerms,
+) -> u64 {
+    // SAFETY: the caller's contract.
+    unsafe { project_one_by_one(x, w, ids, rest, lambda, terms, project_edge_angle) }
 }
 
 /// Projects the hinges `ids[k]` of one colour (no two share a particle), in order, as
@@ -104,7 +161,7 @@ pub(crate) unsafe fn project_hinge_colour(
     ids: &[[u32; 4]],
     rest: &[f64],
     lambda: &mut [f64],
-    terms: HingeTerms,
+    terms: PassTerms,
 ) -> u64 {
     #[cfg(target_arch = "x86_64")]
     if rest.len() == ids.len() && lambda.len() == ids.len() && avx2_available() {
@@ -112,12 +169,42 @@ pub(crate) unsafe fn project_hinge_colour(
         let (four, left) = lambda.split_at_mut(whole);
         // SAFETY: AVX2 is present (checked above); the rest is the caller's contract.
         unsafe {
-            return avx2::project_fours(x, w, &ids[..whole], &rest[..whole], four, terms)
+            return avx2::project_hinge_fours(x, w, &ids[..whole], &rest[..whole], four, terms)
                 + project_hinges_one_by_one(x, w, &ids[whole..], &rest[whole..], left, terms);
         }
     }
     // SAFETY: the caller's contract.
     unsafe { project_hinges_one_by_one(x, w, ids, rest, lambda, terms) }
+}
+
+/// Projects the angles `ids[k]` of one colour (no two share a particle), in order, as
+/// [`project_angles_one_by_one`] does and with its bits, four at a time where the processor
+/// can ([`avx2_available`]). Returns how many angles were skipped.
+///
+/// # Safety
+/// As [`project_angles_one_by_one`], and no two of the angles share a particle.
+///
+/// [`avx2_available`]: nucleus_sdk::lanes::avx2_available
+pub(crate) unsafe fn project_angle_colour(
+    x: SharedArray<DVec3>,
+    w: &[f64],
+    ids: &[[u32; 3]],
+    rest: &[f64],
+    lambda: &mut [f64],
+    terms: PassTerms,
+) -> u64 {
+    #[cfg(target_arch = "x86_64")]
+    if rest.len() == ids.len() && lambda.len() == ids.len() && avx2_available() {
+        let whole = ids.len() / 4 * 4;
+        let (four, left) = lambda.split_at_mut(whole);
+        // SAFETY: AVX2 is present (checked above); the rest is the caller's contract.
+        unsafe {
+            return avx2::project_angle_fours(x, w, &ids[..whole], &rest[..whole], four, terms)
+                + project_angles_one_by_one(x, w, &ids[whole..], &rest[whole..], left, terms);
+        }
+    }
+    // SAFETY: the caller's contract.
+    unsafe { project_angles_one_by_one(x, w, ids, rest, lambda, terms) }
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -128,7 +215,8 @@ mod avx2 {
     use nucleus_sdk::lanes::avx2::{add, dot, load, moved, neg, scale, select, store, sub, Lanes3};
 
     use super::*;
-    use crate::dihedral::MIN_LENGTH;
+    use crate::angle::{MIN_LENGTH as EDGE_MIN_LENGTH, MIN_SIN};
+    use crate::dihedral::MIN_LENGTH as HINGE_MIN_LENGTH;
     use crate::trig::{MOREBITS, P, Q, T3P8, UNREDUCED_MAX};
 
     /// `a × b` as [`DVec3::cross`] rounds it: `(a.y b.z − b.y a.z, a.z b.x − b.z a.x,
@@ -252,6 +340,131 @@ mod avx2 {
         select(below, _mm256_add_pd(d, tau), d)
     }
 
+    /// The constants of [`xpbd_correction`] and [`delta_lambda`] in a pass, in every lane.
+    ///
+    /// [`xpbd_correction`]: crate::step::xpbd_correction
+    /// [`delta_lambda`]: nucleus_sdk::xpbd::delta_lambda
+    #[derive(Clone, Copy)]
+    struct Xpbd {
+        /// `delta_lambda`'s `alpha / (h * h)`, one value for every constraint.
+        alpha_tilde: __m256d,
+    }
+
+    impl Xpbd {
+        #[inline]
+        #[target_feature(enable = "avx2")]
+        fn new(terms: PassTerms) -> Self {
+            Self {
+                alpha_tilde: _mm256_set1_pd(terms.alpha / (terms.h * terms.h)),
+            }
+        }
+
+        /// The end of the one-constraint kernel for four constraints of `N` particles whose
+        /// value `c` and gradient `grad` are computed, `ok` in the lanes the scalar kernel
+        /// gets that far (its degenerate tests passed): [`xpbd_correction`] and
+        /// [`delta_lambda`] in the same operations, the particles `k` (role by role, lane by
+        /// lane) at `xs` moved by `w ∇C Δλ` and the multipliers at `lambda` (four) increased
+        /// by `Δλ` in the lanes that pass its test on the weighted gradient norm too, the
+        /// others left as they are. Returns how many lanes were skipped.
+        ///
+        /// # Safety
+        /// Every `k[r][l]` indexes a point of `p` that no other thread reads or writes
+        /// meanwhile, the `4 N` distinct; `lambda` holds four values; AVX2 is present.
+        ///
+        /// [`xpbd_correction`]: crate::step::xpbd_correction
+        /// [`delta_lambda`]: nucleus_sdk::xpbd::delta_lambda
+        #[allow(clippy::too_many_arguments)]
+        #[inline]
+        #[target_feature(enable = "avx2")]
+        unsafe fn correct<const N: usize>(
+            self,
+            p: *mut DVec3,
+            k: &[[usize; 4]; N],
+            xs: &[Lanes3; N],
+            ws: &[__m256d; N],
+            grad: &[Lanes3; N],
+            c: __m256d,
+            ok: __m256d,
+            lambda: &mut [f64],
+        ) -> u64 {
+            let zero = _mm256_setzero_pd();
+            let infinity = _mm256_set1_pd(f64::INFINITY);
+            let alpha_tilde = self.alpha_tilde;
+            // `xpbd_correction`: `0.0 + w₀|∇₀C|² + …`, then its test.
+            let mut w_grad_sq = zero;
+            for (w, g) in ws.iter().zip(grad) {
+                w_grad_sq = _mm256_add_pd(w_grad_sq, _mm256_mul_pd(*w, dot(g, g)));
+            }
+            let movable = _mm256_and_pd(
+                _mm256_cmp_pd::<_CMP_GT_OQ>(w_grad_sq, zero),
+                _mm256_cmp_pd::<_CMP_LT_OQ>(w_grad_sq, infinity),
+            );
+            // `delta_lambda`, its guard selecting `0.0`.
+            let denom = _mm256_add_pd(w_grad_sq, alpha_tilde);
+            let denom_ok = _mm256_and_pd(
+                _mm256_cmp_pd::<_CMP_GT_OQ>(denom, _mm256_set1_pd(f64::MIN_POSITIVE)),
+                _mm256_cmp_pd::<_CMP_LT_OQ>(denom, infinity),
+            );
+            debug_assert_eq!(lambda.len(), 4);
+            // SAFETY: `lambda` holds four values (the caller's contract).
+            let lambda_in = unsafe { _mm256_loadu_pd(lambda.as_ptr()) };
+            let delta_lambda = select(
+                denom_ok,
+                _mm256_div_pd(
+                    _mm256_sub_pd(neg(c), _mm256_mul_pd(alpha_tilde, lambda_in)),
+                    denom,
+                ),
+                zero,
+            );
+
+            // Apply where the one-constraint kernel returns a correction; skip elsewhere.
+            let apply = _mm256_and_pd(ok, movable);
+            for r in 0..N {
+                let dx = scale(&grad[r], _mm256_mul_pd(ws[r], delta_lambda));
+                // SAFETY: the caller's contract.
+                unsafe { store(p, k[r], &moved(&xs[r], &dx, apply)) };
+            }
+            let lambda_out = select(apply, _mm256_add_pd(lambda_in, delta_lambda), lambda_in);
+            // SAFETY: as for the load of `lambda`.
+            unsafe { _mm256_storeu_pd(lambda.as_mut_ptr(), lambda_out) };
+            4 - u64::from(_mm256_movemask_pd(apply).count_ones())
+        }
+    }
+
+    /// The particles of each role `r` of four constraints `ids`, lane by lane, their inverse
+    /// masses and their positions.
+    ///
+    /// # Safety
+    /// Every index of `ids` indexes a point of `p` that no other thread writes meanwhile and
+    /// is below `w.len()`; AVX2 is present.
+    #[allow(clippy::type_complexity)]
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn gather<const N: usize>(
+        p: *const DVec3,
+        w: &[f64],
+        ids: &[[u32; N]],
+    ) -> ([[usize; 4]; N], [__m256d; N], [Lanes3; N]) {
+        // Plain loops, no `array::map`: its closures would inherit AVX2 and `map` would not,
+        // so they would not be inlined into this loop (a call per point, measured slower).
+        let zero = _mm256_setzero_pd();
+        let mut k = [[0; 4]; N];
+        let mut ws = [zero; N];
+        let mut xs = [Lanes3 {
+            x: zero,
+            y: zero,
+            z: zero,
+        }; N];
+        for r in 0..N {
+            k[r] = [ids[0][r], ids[1][r], ids[2][r], ids[3][r]].map(|i| i as usize);
+            let k = k[r];
+            ws[r] = _mm256_setr_pd(w[k[0]], w[k[1]], w[k[2]], w[k[3]]);
+            // SAFETY: the caller's contract.
+            xs[r] = unsafe { load(p, k) };
+        }
+        (k, ws, xs)
+    }
+
     /// The hinges in groups of four (`ids.len()`, `rest.len()` and `lambda.len()` equal and a
     /// multiple of 4): [`project_dihedral`] of each lane, its `hinge`, `Hinge::angle`,
     /// `dihedral_angle_gradient`, `wrap_angle`, `xpbd_correction` and `delta_lambda` in the
@@ -261,31 +474,26 @@ mod avx2 {
     /// # Safety
     /// As [`super::project_hinge_colour`]; AVX2 is present.
     #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn project_fours(
+    pub(super) unsafe fn project_hinge_fours(
         x: SharedArray<DVec3>,
         w: &[f64],
         ids: &[[u32; 4]],
         rest: &[f64],
         lambda: &mut [f64],
-        terms: HingeTerms,
+        terms: PassTerms,
     ) -> u64 {
         let p = x.at(0);
-        let zero = _mm256_setzero_pd();
         let one = _mm256_set1_pd(1.0);
         let infinity = _mm256_set1_pd(f64::INFINITY);
-        let min_sq = _mm256_set1_pd(MIN_LENGTH * MIN_LENGTH);
-        // `delta_lambda`'s `alpha / (h * h)`, one value for every hinge.
-        let alpha_tilde = _mm256_set1_pd(terms.alpha / (terms.h * terms.h));
-        let min_positive = _mm256_set1_pd(f64::MIN_POSITIVE);
+        let min_sq = _mm256_set1_pd(HINGE_MIN_LENGTH * HINGE_MIN_LENGTH);
+        let xpbd = Xpbd::new(terms);
         let mut skipped = 0;
         let chunks = ids.chunks_exact(4).zip(rest.chunks_exact(4));
         for ((ids, rest), lambda) in chunks.zip(lambda.chunks_exact_mut(4)) {
             // The particles of role r (i, j, k, l) of the four hinges, lane by lane.
-            let k = [0, 1, 2, 3].map(|r| [0, 1, 2, 3].map(|l| ids[l][r] as usize));
-            let ws = k.map(|k| _mm256_setr_pd(w[k[0]], w[k[1]], w[k[2]], w[k[3]]));
             // SAFETY: every index is below the positions' length and no other thread touches
             // these particles (the caller's contract); AVX2 is present.
-            let xs = k.map(|k| unsafe { load(p, k) });
+            let (k, ws, xs) = unsafe { gather(p, w, ids) };
 
             // `hinge`: the axis, the wings, the normals and the degenerate tests.
             let e = sub(&xs[1], &xs[0]);
@@ -342,44 +550,81 @@ mod avx2 {
             let c = wrap_angle(_mm256_sub_pd(phi, unsafe {
                 _mm256_loadu_pd(rest.as_ptr())
             }));
-            let mut w_grad_sq = zero;
-            for (w, g) in ws.iter().zip(&grad) {
-                w_grad_sq = _mm256_add_pd(w_grad_sq, _mm256_mul_pd(*w, dot(g, g)));
-            }
-            let movable = _mm256_and_pd(
-                _mm256_cmp_pd::<_CMP_GT_OQ>(w_grad_sq, zero),
-                _mm256_cmp_pd::<_CMP_LT_OQ>(w_grad_sq, infinity),
+            let ok = _mm256_and_pd(_mm256_and_pd(axis_ok, wings_ok), finite_ok);
+            // SAFETY: as for the loads; `lambda` holds four values (`chunks_exact_mut`).
+            skipped += unsafe { xpbd.correct(p, &k, &xs, &ws, &grad, c, ok, lambda) };
+        }
+        skipped
+    }
+
+    /// The angles in groups of four (`ids.len()`, `rest.len()` and `lambda.len()` equal and a
+    /// multiple of 4): [`project_edge_angle`] of each lane, its `edge_angle_gradient`,
+    /// `xpbd_correction` and `delta_lambda` in the same operations as the scalar code (each
+    /// step below names the scalar line it reproduces). Returns how many angles were skipped.
+    ///
+    /// # Safety
+    /// As [`super::project_angle_colour`]; AVX2 is present.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn project_angle_fours(
+        x: SharedArray<DVec3>,
+        w: &[f64],
+        ids: &[[u32; 3]],
+        rest: &[f64],
+        lambda: &mut [f64],
+        terms: PassTerms,
+    ) -> u64 {
+        let p = x.at(0);
+        let one = _mm256_set1_pd(1.0);
+        let min_sq = _mm256_set1_pd(EDGE_MIN_LENGTH * EDGE_MIN_LENGTH);
+        // `MIN_SIN * MIN_SIN * a_sq * b_sq` is `((MIN_SIN * MIN_SIN) * a_sq) * b_sq`.
+        let min_sin_sq = _mm256_set1_pd(MIN_SIN * MIN_SIN);
+        let xpbd = Xpbd::new(terms);
+        let mut skipped = 0;
+        let chunks = ids.chunks_exact(4).zip(rest.chunks_exact(4));
+        for ((ids, rest), lambda) in chunks.zip(lambda.chunks_exact_mut(4)) {
+            // The particles of role r (i, j, k) of the four angles, lane by lane.
+            // SAFETY: every index is below the positions' length and no other thread touches
+            // these particles (the caller's contract); AVX2 is present.
+            let (k, ws, xs) = unsafe { gather(p, w, ids) };
+
+            // `edge_angle_gradient`: the edges and their test,
+            // `!(a_sq >= min_sq && b_sq >= min_sq)` (infinite lengths pass).
+            let a = sub(&xs[0], &xs[1]);
+            let b = sub(&xs[2], &xs[1]);
+            let (a_sq, b_sq) = (dot(&a, &a), dot(&b, &b));
+            let edges_ok = _mm256_and_pd(
+                _mm256_cmp_pd::<_CMP_GE_OQ>(a_sq, min_sq),
+                _mm256_cmp_pd::<_CMP_GE_OQ>(b_sq, min_sq),
             );
-            let denom = _mm256_add_pd(w_grad_sq, alpha_tilde);
-            let denom_ok = _mm256_and_pd(
-                _mm256_cmp_pd::<_CMP_GT_OQ>(denom, min_positive),
-                _mm256_cmp_pd::<_CMP_LT_OQ>(denom, infinity),
+            // The normal and the collinear test, `n_sq.is_nan() || n_sq < MIN_SIN² a_sq b_sq`:
+            // kept where `n_sq` is not NaN and not below (true where the bound is NaN).
+            let n = cross(&a, &b);
+            let n_sq = dot(&n, &n);
+            let bound = _mm256_mul_pd(_mm256_mul_pd(min_sin_sq, a_sq), b_sq);
+            let plane_ok = _mm256_and_pd(
+                _mm256_cmp_pd::<_CMP_ORD_Q>(n_sq, n_sq),
+                _mm256_cmp_pd::<_CMP_NLT_UQ>(n_sq, bound),
             );
-            // SAFETY: `lambda` holds four values (`chunks_exact_mut`).
-            let lambda_in = unsafe { _mm256_loadu_pd(lambda.as_ptr()) };
-            let delta_lambda = select(
-                denom_ok,
-                _mm256_div_pd(
-                    _mm256_sub_pd(neg(c), _mm256_mul_pd(alpha_tilde, lambda_in)),
-                    denom,
-                ),
-                zero,
+            let n_len = _mm256_sqrt_pd(n_sq);
+            let phi = atan2(n_len, dot(&a, &b));
+            // `r = 1.0 / (n_len * a_sq * b_sq)`, `gi = n.cross(a) * (-b_sq * r)`,
+            // `gk = n.cross(b) * (a_sq * r)`, `grad = [gi, -(gi + gk), gk]`.
+            let r = _mm256_div_pd(one, _mm256_mul_pd(_mm256_mul_pd(n_len, a_sq), b_sq));
+            let gi = scale(&cross(&n, &a), _mm256_mul_pd(neg(b_sq), r));
+            let gk = scale(&cross(&n, &b), _mm256_mul_pd(a_sq, r));
+            let gj = neg3(&add(&gi, &gk));
+            let grad = [gi, gj, gk];
+            let finite_ok = _mm256_and_pd(
+                _mm256_and_pd(finite(phi), finite3(&gi)),
+                _mm256_and_pd(finite3(&gj), finite3(&gk)),
             );
 
-            // Apply where the one-hinge kernel returns a correction; skip elsewhere.
-            let apply = _mm256_and_pd(
-                _mm256_and_pd(axis_ok, wings_ok),
-                _mm256_and_pd(finite_ok, movable),
-            );
-            for r in 0..4 {
-                let dx = scale(&grad[r], _mm256_mul_pd(ws[r], delta_lambda));
-                // SAFETY: as for the loads.
-                unsafe { store(p, k[r], &moved(&xs[r], &dx, apply)) };
-            }
-            let lambda_out = select(apply, _mm256_add_pd(lambda_in, delta_lambda), lambda_in);
-            // SAFETY: as for the load of `lambda`.
-            unsafe { _mm256_storeu_pd(lambda.as_mut_ptr(), lambda_out) };
-            skipped += 4 - u64::from(_mm256_movemask_pd(apply).count_ones());
+            // `project_edge_angle`'s `C = φ − rest`, then `xpbd_correction` and `delta_lambda`.
+            // SAFETY: `rest` holds four values (`chunks_exact`).
+            let c = _mm256_sub_pd(phi, unsafe { _mm256_loadu_pd(rest.as_ptr()) });
+            let ok = _mm256_and_pd(_mm256_and_pd(edges_ok, plane_ok), finite_ok);
+            // SAFETY: as for the loads; `lambda` holds four values (`chunks_exact_mut`).
+            skipped += unsafe { xpbd.correct(p, &k, &xs, &ws, &grad, c, ok, lambda) };
         }
         skipped
     }
@@ -392,18 +637,19 @@ mod tests {
     use super::*;
     use crate::testutil::{Draws, Rng};
 
-    /// One colour of hinges with its particles.
-    struct Colour {
+    /// One colour of constraints of `N` particles (hinges, angles) with its particles.
+    struct Colour<const N: usize> {
         x: Vec<DVec3>,
         w: Vec<f64>,
-        ids: Vec<[u32; 4]>,
+        ids: Vec<[u32; N]>,
         rest: Vec<f64>,
         lambda: Vec<f64>,
     }
 
-    /// A colour kernel's signature: [`project_hinges_one_by_one`] or [`project_hinge_colour`].
-    type Kernel =
-        unsafe fn(SharedArray<DVec3>, &[f64], &[[u32; 4]], &[f64], &mut [f64], HingeTerms) -> u64;
+    /// A colour kernel's signature: [`project_hinges_one_by_one`] or [`project_hinge_colour`]
+    /// (`N = 4`), [`project_angles_one_by_one`] or [`project_angle_colour`] (`N = 3`).
+    type Kernel<const N: usize> =
+        unsafe fn(SharedArray<DVec3>, &[f64], &[[u32; N]], &[f64], &mut [f64], PassTerms) -> u64;
 
     /// What a pass leaves: the positions' and multipliers' bits and the skip count.
     type Outcome = (Vec<[u64; 3]>, Vec<u64>, u64);
@@ -414,13 +660,14 @@ mod tests {
             .collect()
     }
 
-    impl Colour {
-        /// The positions, multipliers and skip count after `kernel` projects every hinge
+    impl<const N: usize> Colour<N> {
+        /// The positions, multipliers and skip count after `kernel` projects every constraint
         /// once, from copies of `x` and `lambda`.
-        fn pass(&self, kernel: Kernel, terms: HingeTerms) -> Outcome {
+        fn pass(&self, kernel: Kernel<N>, terms: PassTerms) -> Outcome {
             let (mut x, mut lambda) = (self.x.clone(), self.lambda.clone());
-            // SAFETY: every index is below the number of particles, the four of a hinge are
-            // distinct, no two hinges share a particle, and one thread owns the arrays.
+            // SAFETY: every index is below the number of particles, the `N` of a constraint
+            // are distinct, no two constraints share a particle, and one thread owns the
+            // arrays.
             let skipped = unsafe {
                 kernel(
                     SharedArray::new(&mut x),
@@ -433,6 +680,33 @@ mod tests {
             };
             let lambda = lambda.iter().map(|l| l.to_bits()).collect();
             (bits(&x), lambda, skipped)
+        }
+
+        /// Asserts that the particles are one colour: no particle in two constraints.
+        fn assert_one_colour(&self) {
+            let mut seen = vec![false; self.x.len()];
+            for &i in self.ids.iter().flatten() {
+                assert!(!seen[i as usize], "one colour");
+                seen[i as usize] = true;
+            }
+        }
+
+        /// Asserts that `one` and `four` (passes of the one-at-a-time and the colour kernel
+        /// with compliance `alpha`) have the same bits, and that the pass did something.
+        fn assert_same_bits(&self, one: &Outcome, four: &Outcome, alpha: f64) {
+            let ((x_one, lambda_one, skipped_one), (x_four, lambda_four, skipped_four)) =
+                (one, four);
+            if alpha < 1e300 {
+                assert_ne!(*x_one, bits(&self.x), "the pass moved particles");
+            }
+            assert!(*skipped_one > 0 && (*skipped_one as usize) < self.ids.len());
+            assert_eq!(skipped_one, skipped_four, "α = {alpha}");
+            for (k, (one, four)) in x_one.iter().zip(x_four).enumerate() {
+                assert_eq!(one, four, "α = {alpha}, particle {k}");
+            }
+            for (k, (one, four)) in lambda_one.iter().zip(lambda_four).enumerate() {
+                assert_eq!(one, four, "α = {alpha}, constraint {k}");
+            }
         }
     }
 
@@ -460,7 +734,7 @@ mod tests {
     /// (wrapping both ways), all four points coincident, a zero-length or too short axis, a
     /// zero-area wing or one just at the height limit, NaN and infinite positions, sizes whose
     /// squares overflow, negative zeros, two or all inverse masses zero, a NaN one, subnormal ones.
-    fn colour(rng: &mut Rng) -> Colour {
+    fn hinge_colour(rng: &mut Rng) -> Colour<4> {
         let hinges = 4003;
         let particles = 4 * hinges;
         let mut x = vec![DVec3::ZERO; particles];
@@ -527,18 +801,15 @@ mod tests {
                 _ => rng.range(-PI, PI),
             });
         }
-        let mut seen = vec![false; particles];
-        for &i in ids.iter().flatten() {
-            assert!(!seen[i as usize], "one colour");
-            seen[i as usize] = true;
-        }
-        Colour {
+        let colour = Colour {
             x,
             w,
             ids,
             rest,
             lambda,
-        }
+        };
+        colour.assert_one_colour();
+        colour
     }
 
     /// The lanes run only where the processor has AVX2: elsewhere the test below compares the
@@ -557,21 +828,215 @@ mod tests {
         // Rigid, stiff, cotton, silk, and so soft that `delta_lambda`'s denominator
         // overflows (its guard then gives Δλ = 0, a correction of ±0).
         for alpha in [0.0, 1e-2, 5e3, 1e5, 1e305] {
-            let terms = HingeTerms { alpha, h };
-            let c = colour(&mut rng);
-            let (x_one, lambda_one, skipped_one) = c.pass(project_hinges_one_by_one, terms);
-            let (x_four, lambda_four, skipped_four) = c.pass(project_hinge_colour, terms);
-            if alpha < 1e300 {
-                assert_ne!(x_one, bits(&c.x), "the pass moved particles");
+            let terms = PassTerms { alpha, h };
+            let c = hinge_colour(&mut rng);
+            let one = c.pass(project_hinges_one_by_one, terms);
+            let four = c.pass(project_hinge_colour, terms);
+            c.assert_same_bits(&one, &four, alpha);
+        }
+    }
+
+    /// Three points whose angle at the middle one is `phi`, edges of lengths `la`, `lb`
+    /// about a random point of size `scale` in a random orientation.
+    fn angle(rng: &mut Rng, phi: f64, la: f64, lb: f64, scale: f64) -> [DVec3; 3] {
+        let j = rng.vec3(1.0) * scale;
+        let (u, v) = rng.frame();
+        [j + u * la, j, j + (u * phi.cos() + v * phi.sin()) * lb]
+    }
+
+    /// 4,003 angles on 12,009 particles (one colour: no particle shared, and a tail of 3 for
+    /// the one-angle kernel), with random shapes, rest angles, inverse masses and multipliers,
+    /// and every case the kernels treat apart: collinear both ways (φ = 0 and π, exactly, with
+    /// a cross product of exactly zero, and through rounding), near collinear on both sides of
+    /// `MIN_SIN` at 0 and at π, and exactly at it or one ulp off ([`at_a_limit`]), all three
+    /// points coincident, a zero-length edge on either side, edges just below and above
+    /// `MIN_LENGTH` and exactly at it or one ulp off, NaN and infinite positions, sizes from
+    /// 1e-160 (squares underflow) to 1e150 (squares overflow), negative zeros, all or two
+    /// inverse masses zero, a NaN one, subnormal ones.
+    /// Three points exactly at a limit of the one-angle kernel's tests, or one ulp of the
+    /// limit below or above it (`k % 3`), with no rounding in the quantities compared:
+    /// `|a × b|² = MIN_SIN² |a|² |b|²` near 0 (`case` 29) or near π (30), or `|a|²` or `|b|²`
+    /// (`k % 2`) equal to `MIN_LENGTH²` at a right angle (31). Edges of a power of two, and
+    /// the axes permuted.
+    fn at_a_limit(case: usize, k: usize) -> [DVec3; 3] {
+        use crate::angle::{MIN_LENGTH, MIN_SIN};
+        let ulps = |v: f64| [v.next_down(), v, v.next_up()][k % 3];
+        let s = 2f64.powi((k % 21) as i32 - 10);
+        let (a, b) = match case {
+            29 => (
+                DVec3::new(s, 0.0, 0.0),
+                DVec3::new(s, ulps(MIN_SIN) * s, 0.0),
+            ),
+            30 => (
+                DVec3::new(s, 0.0, 0.0),
+                DVec3::new(-s, ulps(MIN_SIN) * s, 0.0),
+            ),
+            _ => {
+                let (short, long) = (
+                    DVec3::new(ulps(MIN_LENGTH), 0.0, 0.0),
+                    DVec3::new(0.0, s, 0.0),
+                );
+                if k.is_multiple_of(2) {
+                    (short, long)
+                } else {
+                    (long, short)
+                }
             }
-            assert!(skipped_one > 0 && (skipped_one as usize) < c.ids.len());
-            assert_eq!(skipped_one, skipped_four, "α = {alpha}");
-            for (k, (one, four)) in x_one.iter().zip(&x_four).enumerate() {
-                assert_eq!(one, four, "α = {alpha}, particle {k}");
+        };
+        let j = DVec3::new(0.0, 0.0, 3.0);
+        [j + a, j, j + b].map(|v| match k / 3 % 3 {
+            0 => v,
+            1 => DVec3::new(v.y, v.z, v.x),
+            _ => DVec3::new(v.z, v.x, v.y),
+        })
+    }
+
+    /// Three points whose `|a × b|²` lies between the two roundings of the collinear test's
+    /// bound `MIN_SIN² |a|² |b|²`, `(MIN_SIN² |a|²) |b|²` (the scalar code's) and
+    /// `MIN_SIN² (|a|² |b|²)`: kept by one order of the products and skipped by the other.
+    fn between_the_bounds(rng: &mut Rng) -> [DVec3; 3] {
+        use crate::angle::MIN_SIN;
+        let j = DVec3::new(0.0, 0.0, 3.0);
+        loop {
+            let (ax, bx) = (rng.range(0.5, 2.0), rng.range(-2.0, 2.0));
+            let aim = MIN_SIN * bx.abs();
+            let mut by = aim;
+            for _ in 0..8 {
+                by = by.next_down();
             }
-            for (k, (one, four)) in lambda_one.iter().zip(&lambda_four).enumerate() {
-                assert_eq!(one, four, "α = {alpha}, hinge {k}");
+            for _ in 0..16 {
+                by = by.next_up();
+                let (a, b) = (DVec3::new(ax, 0.0, 0.0), DVec3::new(bx, by, 0.0));
+                let (a_sq, b_sq) = (a.length_squared(), b.length_squared());
+                let n_sq = a.cross(b).length_squared();
+                let ours = MIN_SIN * MIN_SIN * a_sq * b_sq;
+                let other = MIN_SIN * MIN_SIN * (a_sq * b_sq);
+                if (n_sq < ours) != (n_sq < other) {
+                    return [j + a, j, j + b];
+                }
             }
+        }
+    }
+
+    fn angle_colour(rng: &mut Rng) -> Colour<3> {
+        use crate::angle::{edge_angle, edge_angle_gradient, MIN_SIN};
+        let angles = 4003;
+        let particles = 3 * angles;
+        let mut x = vec![DVec3::ZERO; particles];
+        let mut w: Vec<f64> = (0..particles).map(|_| rng.inv_mass()).collect();
+        // Angle k takes the particles 3 (p k mod 4003) + r for the prime p = 7919, a
+        // permutation (4,003 is prime), so its three are scattered over the array.
+        let ids: Vec<[u32; 3]> = (0..angles as u32)
+            .map(|k| {
+                let b = 3 * (k * 7919 % angles as u32);
+                [b + 2, b, b + 1]
+            })
+            .collect();
+        let mut rest = Vec::with_capacity(angles);
+        let lambda = (0..angles).map(|_| rng.range(-1e-4, 1e-4)).collect();
+        // The near-collinear angles the one-angle kernel projects and skips.
+        let (mut near_kept, mut near_skipped) = (0, 0);
+        for (k, ids) in ids.iter().enumerate() {
+            let case = k % 33;
+            let phi = match case {
+                0 => 0.0,
+                1 => PI,
+                2 => MIN_SIN * rng.range(0.5, 2.0),
+                3 => PI - MIN_SIN * rng.range(0.5, 2.0),
+                4 => rng.range(1e-9, 1e-7),
+                5 => PI - rng.range(1e-9, 1e-7),
+                _ => rng.range(0.0, PI),
+            };
+            let scale = match case {
+                6 => 1e-12,   // edges about the length limit
+                7 => 1e77,    // squares finite, the normal's not
+                8 => 1e150,   // squares overflow
+                9 => 1e-160,  // squares underflow
+                10 => 1e50,   // large and projectable
+                27 => 1e60,   // the gradient's denominator overflows: a zero gradient
+                28 => 1e-100, // the normal's square and its bound underflow to 0
+                _ => 1.0,
+            };
+            let (la, lb) = (rng.range(0.2, 2.0) * scale, rng.range(0.2, 2.0) * scale);
+            let mut p = angle(rng, phi, la, lb, scale);
+            let [i, j, kk] = ids.map(|i| i as usize);
+            match case {
+                11 => p = [p[1]; 3],                       // all coincident
+                12 => p[0] = p[1],                         // zero-length edge a
+                13 => p[2] = p[1],                         // zero-length edge b
+                14 => p[0] = p[1] + (p[0] - p[1]) * 1e-12, // a about the length limit
+                15 => p[2] = p[1] + (p[2] - p[1]) * 1e-12, // b about it
+                16 => p[2] = p[1] + (p[1] - p[0]) * 0.7,   // straight through rounding
+                17 => p[2] = p[1] + (p[0] - p[1]) * 1.3,   // folded back through rounding
+                18 => (p[0], p[2]) = (p[1] + DVec3::X * la, p[1] - DVec3::X * lb), // straight
+                19 => (p[0], p[2]) = (p[1] + DVec3::Y * la, p[1] + DVec3::Y * lb), // folded
+                20 => p[2].y = f64::NAN,                   // a NaN position
+                21 => p[0].z = f64::INFINITY,              // an infinite one
+                22 => (w[i], w[j], w[kk]) = (0.0, 0.0, 0.0), // all pinned
+                23 => (w[i], w[kk]) = (0.0, 0.0),          // two pinned
+                24 => w[j] = f64::NAN,                     // a NaN inverse mass
+                25 => {
+                    // Negative zeros where the correction may be ±0.
+                    p[1] = DVec3::new(-0.0, 0.0, -0.0);
+                    w[j] = 0.0;
+                }
+                26 => {
+                    // Subnormal inverse masses: `delta_lambda`'s denominator below the
+                    // smallest normal number when rigid, so Δλ = 0.
+                    (w[i], w[j], w[kk]) = (1e-310, 1e-310, 1e-310);
+                }
+                29..=31 => p = at_a_limit(case, k / 33),
+                32 => p = between_the_bounds(rng),
+                _ => {}
+            }
+            if case == 29 && k / 33 % 3 == 1 {
+                assert!(edge_angle_gradient(&p).is_some(), "kept at MIN_SIN: {p:?}");
+            }
+            if matches!(case, 2 | 3) {
+                match edge_angle_gradient(&p) {
+                    Some(_) => near_kept += 1,
+                    None => near_skipped += 1,
+                }
+            }
+            for (r, q) in ids.iter().zip(p) {
+                x[*r as usize] = q;
+            }
+            // Rest angles: the current one, straight, folded, or any.
+            rest.push(match k % 7 {
+                0 => edge_angle(&p).unwrap_or(0.5),
+                1 => PI,
+                2 => 0.0,
+                _ => rng.range(0.0, PI),
+            });
+        }
+        assert!(
+            near_kept > 10 && near_skipped > 10,
+            "{near_kept} {near_skipped}"
+        );
+        let colour = Colour {
+            x,
+            w,
+            ids,
+            rest,
+            lambda,
+        };
+        colour.assert_one_colour();
+        colour
+    }
+
+    #[test]
+    fn four_lanes_give_the_bits_of_the_one_angle_kernel_on_colours_with_every_degenerate_case() {
+        lanes_or_say_why_not();
+        let mut rng = Rng(0xa261e);
+        let h = 1.0 / 600.0;
+        // Rigid, the shear of a sample scene, stiff, cotton, silk, and so soft that
+        // `delta_lambda`'s denominator overflows (its guard then gives Δλ = 0).
+        for alpha in [0.0, 1e-3, 1e-2, 5e3, 1e5, 1e305] {
+            let terms = PassTerms { alpha, h };
+            let c = angle_colour(&mut rng);
+            let one = c.pass(project_angles_one_by_one, terms);
+            let four = c.pass(project_angle_colour, terms);
+            c.assert_same_bits(&one, &four, alpha);
         }
     }
 

@@ -81,33 +81,46 @@
 //!
 //! ## Cost
 //!
-//! **Four hinges per instruction** (`lanes`, since 2026-11-24). Within a colour, the dihedral
-//! hinges (`bend` on surfaces, and `twist`'s chains, which use the same kernel) run four
-//! consecutive hinges in AVX2's 256-bit lanes where the processor has AVX2 (checked once at run
-//! time); the hinges left over after the last four of each part, the overflow colour (whose
-//! hinges may share particles) and other processors take the one-hinge kernel. The arithmetic
-//! is [`dihedral::project_dihedral`]'s operation for operation, without fused multiply-adds,
-//! and every data-dependent branch (the degenerate tests, `atan2`'s swap, range reduction,
-//! quadrant and sign, the angle's wrap, the XPBD denominator's guard) is computed both ways and
+//! **Four constraints per instruction** (`lanes`: hinges since 2026-11-24, angles since
+//! 2026-11-24). Within a colour, the dihedral hinges (`bend` on surfaces, and `twist`'s chains,
+//! which use the same kernel) and the angles (`shear`'s triangle corners, `bend` on curves) run
+//! four consecutive constraints in AVX2's 256-bit lanes where the processor has AVX2 (checked
+//! once at run time); the constraints left over after the last four of each part, the overflow
+//! colour (whose constraints may share particles) and other processors take the one-at-a-time
+//! kernel. The arithmetic is [`dihedral::project_dihedral`]'s and
+//! [`angle::project_edge_angle`]'s operation for operation, without fused multiply-adds, and
+//! every data-dependent branch (the degenerate tests, `atan2`'s swap, range reduction, quadrant
+//! and sign, the hinge angle's wrap, the XPBD denominator's guard) is computed both ways and
 //! selected per lane: every position, multiplier and skip count has the same bits as the
-//! one-hinge kernel. Unit tests check this on random colours with every degenerate case and
-//! the lane `atan2` on 400,000 arguments; a 96 × 96 drape with `bend` gives byte-identical
-//! frames on 1 and 2 threads against the build before. `bend_isometric`, the angles (`shear`,
-//! curve bend) stay one at a time.
+//! one-at-a-time kernel. Unit tests check this on random colours with every degenerate case
+//! (for the angles also exactly at, and one ulp either side of, the collinear and the length
+//! limits) and the lane `atan2` on 400,000 arguments; a 96 × 96 drape with `bend`, and one
+//! with `shear`, give byte-identical frames on 1 and 2 threads against the build before, and
+//! so does the rope coil (curve `bend` and `twist`). `bend_isometric` stays one hinge at a
+//! time.
 //!
-//! `cargo bench -p nucleus-bend --bench bend -- dihedral_bend` (one pass over the 48,005
-//! hinges of a 128 × 128 cloth through the ABI, on a team of `RAYON_NUM_THREADS`), the build
-//! with and without the lanes run alternately twice in one session on the shared, loaded 2-core
+//! `cargo bench -p nucleus-bend --bench bend -- 'bend/(dihedral_bend|shear|curve_bend)'` (one
+//! pass over the 48,005 hinges or the 96,774 corners of a 128 × 128 cloth, or the 16,383
+//! joints of a 16,384-segment rope, through the ABI, on a team of `RAYON_NUM_THREADS`), the
+//! builds with and without the lanes run alternately twice in one session on the shared 2-core
 //! VM:
 //!
-//! | threads | one hinge at a time | four lanes | ratio |
-//! |---:|---:|---:|---:|
-//! | 1 | 5.02–5.10 ms (105 ns a hinge) | 1.48–1.54 ms (31 ns) | 3.4× |
-//! | 2 | 2.47–2.79 ms (51–58 ns) | 0.90–0.99 ms (19–21 ns) | 2.8× |
+//! | pass | threads | one at a time | four lanes | ratio |
+//! |---|---:|---:|---:|---:|
+//! | hinges | 1 | 5.02–5.10 ms (105 ns a hinge) | 1.48–1.54 ms (31 ns) | 3.4× |
+//! | hinges | 2 | 2.47–2.79 ms (51–58 ns) | 0.90–0.99 ms (19–21 ns) | 2.8× |
+//! | `shear` | 1 | 8.62–8.87 ms (89–92 ns an angle) | 1.98–2.25 ms (20–23 ns) | 3.8–4.5× |
+//! | `shear` | 2 | 4.72–4.78 ms (49 ns) | 1.06–1.10 ms (11 ns) | 4.3–4.5× |
+//! | curve `bend` | 1 | 1.31–1.52 ms (80–93 ns) | 0.33–0.37 ms (20–23 ns) | 4.0–4.1× |
+//! | curve `bend` | 2 | 0.77–0.79 ms (47–48 ns) | 0.18–0.20 ms (11–12 ns) | 3.9–4.5× |
 //!
-//! More than four: besides doing each operation for four hinges, the lanes take no branch
-//! on the data, and the one-hinge `atan2` branches on the quadrant and on the size of the
-//! ratio, which a random-looking sequence of hinges mispredicts often.
+//! (The hinge rows were measured when the hinge lanes came, on a busier machine; in the angles'
+//! session the hinge pass took 1.31–1.36 ms on 1 thread and 0.74 ms on 2, and 1.17–1.21 and
+//! 0.65 ms with the angles' change, which also loads the lanes without `array::map`.)
+//!
+//! More than four: besides doing each operation for four constraints, the lanes take no branch
+//! on the data, and the one-at-a-time `atan2` branches on the quadrant and on the size of the
+//! ratio, which a random-looking sequence of constraints mispredicts often.
 //!
 //! ## Residual and report
 //!
