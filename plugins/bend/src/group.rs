@@ -12,10 +12,10 @@ use nucleus_sdk::prelude::*;
 use nucleus_sdk::team::{span, SharedArray, TeamRef};
 use serde::{Deserialize, Serialize};
 
-use crate::angle::{edge_angle, project_edge_angle};
-use crate::bergou2006_isometric::{curvature_vector, isometric_weights, project_isometric};
-use crate::dihedral::{dihedral_angle, project_dihedral, wrap_angle};
-use crate::lanes::{project_angle_colour, project_hinge_colour, PassTerms};
+use crate::angle::edge_angle;
+use crate::bergou2006_isometric::{curvature_vector, isometric_weights};
+use crate::dihedral::{dihedral_angle, wrap_angle};
+use crate::lanes::{project_colour, Dihedral, EdgeAngle, Isometric, Lanes, PassTerms};
 use crate::step::Correction;
 
 /// Which constraints a group holds; one per kind of this plugin.
@@ -499,6 +499,53 @@ unsafe fn project_batches<const N: usize>(
     skipped.into_inner()
 }
 
+/// [`project_batches`] with the kernels of `K`: the one-constraint kernel ([`Lanes::one`]) as
+/// `step`, and the parts of independent batches four at a time where the processor can
+/// ([`project_colour`], with the same bits). `constraints` are the particles of each
+/// constraint and its rest value (or weights).
+///
+/// # Safety
+/// As [`project_batches`], and the two slices of `constraints` have the same length.
+#[allow(clippy::too_many_arguments)]
+unsafe fn project_batches_of<const N: usize, K: Lanes<N>>(
+    team: TeamRef<'_>,
+    x: &mut [DVec3],
+    w: &[f64],
+    (ids, rest): (&[[u32; N]], &[K::Rest]),
+    lambda: &mut [f64],
+    batches: &[(Range<usize>, bool)],
+    terms: PassTerms,
+) -> u64
+where
+    K::Rest: Sync,
+{
+    assert_eq!(rest.len(), ids.len());
+    let colour = |xs: SharedArray<DVec3>, lambdas: SharedArray<f64>, r: Range<usize>| {
+        // SAFETY: `project_batches` passes a range of `ids` (and so of `rest` and of the
+        // multipliers, one per constraint) that it owns, of a batch whose constraints share no
+        // particle, with indices in bounds and distinct within each constraint (its contract,
+        // met by our caller); no other part touches them meanwhile.
+        unsafe {
+            let lambda = lambdas.slice(r.start, r.len());
+            project_colour::<N, K>(xs, w, &ids[r.clone()], &rest[r], lambda, terms)
+        }
+    };
+    let (alpha, h) = (terms.alpha, terms.h);
+    // SAFETY: our caller's contract.
+    unsafe {
+        project_batches(
+            team,
+            x,
+            w,
+            ids,
+            lambda,
+            batches,
+            &|k, xs, ws, lambda| K::one(xs, ws, rest[k], alpha, lambda, h),
+            Some(&colour),
+        )
+    }
+}
+
 impl ConstraintGroup for BendGroup {
     fn stages(&self) -> Stages {
         Stages::BEGIN_SUBSTEP | Stages::PROJECT | Stages::REPORT
@@ -519,8 +566,8 @@ impl ConstraintGroup for BendGroup {
     /// (`colour_order`). A colour of at least `PARALLEL_MIN_CONSTRAINTS` (256) constraints is
     /// split into contiguous parts over the host's thread team (`ctx.team`): its constraints
     /// share no particle, so each reads and writes only its own, and the bits are the same on
-    /// any thread count. Dihedral hinges and angles of a colour go four at a time through
-    /// AVX2's lanes where the processor has them (the `lanes` module), with the same bits.
+    /// any thread count. Hinges (dihedral or isometric) and angles of a colour go four at a
+    /// time through AVX2's lanes where the processor has them (the `lanes` module), with the same bits.
     /// Deterministic, no allocation.
     fn project(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
         let (h, team) = (ctx.substep_length()?, ctx.team);
@@ -533,79 +580,42 @@ impl ConstraintGroup for BendGroup {
         // The contract of `project_batches`, for the three calls below: the group's largest
         // index was checked against the state above; `new` refused constraints that use a
         // particle twice (and `curve_chains` makes none) and ordered each by `colour_order`.
-        let mut skipped = match self.quad_model {
-            QuadModel::Dihedral => {
-                let rest = &self.quad_rest[..];
-                let terms = PassTerms { alpha, h };
-                // Four hinges at a time where the processor can, with the same bits.
-                let colour =
-                    |xs: SharedArray<DVec3>, lambdas: SharedArray<f64>, r: Range<usize>| {
-                        // SAFETY: `project_batches` passes a range of `quads` (and so of `rest`
-                        // and of the multipliers, one per hinge) that it owns, of a batch whose
-                        // hinges share no particle, with indices in bounds and distinct within
-                        // each hinge (its contract, met as said above); no other part touches
-                        // them meanwhile.
-                        unsafe {
-                            let lambda = lambdas.slice(r.start, r.len());
-                            project_hinge_colour(xs, w, &quads[r.clone()], &rest[r], lambda, terms)
-                        }
-                    };
-                // SAFETY: the contract, as said above.
-                unsafe {
-                    project_batches(
-                        team,
-                        x,
-                        w,
-                        quads,
-                        hinges,
-                        batches,
-                        &|k, xs, ws, lambda| project_dihedral(xs, ws, rest[k], alpha, lambda, h),
-                        Some(&colour),
-                    )
-                }
-            }
-            QuadModel::Isometric => {
-                let weights = &self.quad_weights[..];
-                // SAFETY: the contract, as said above.
-                unsafe {
-                    project_batches(
-                        team,
-                        x,
-                        w,
-                        quads,
-                        hinges,
-                        batches,
-                        &|k, xs, ws, lambda| {
-                            project_isometric(xs, &weights[k], ws, alpha, lambda, h)
-                        },
-                        None,
-                    )
-                }
-            }
-        };
-        let (triples, rest) = (&self.triples[..], &self.triple_rest[..]);
         let terms = PassTerms { alpha, h };
-        // Four angles at a time where the processor can, with the same bits.
-        let colour = |xs: SharedArray<DVec3>, lambdas: SharedArray<f64>, r: Range<usize>| {
-            // SAFETY: as for the hinges: a range of `triples` (and of `rest` and of the
-            // multipliers) that `project_batches` owns, of a batch whose angles share no
-            // particle, with indices in bounds and distinct within each angle.
-            unsafe {
-                let lambda = lambdas.slice(r.start, r.len());
-                project_angle_colour(xs, w, &triples[r.clone()], &rest[r], lambda, terms)
+        // Four constraints at a time where the processor can, with the same bits.
+        // SAFETY: the contract, as said above; one rest value (or set of weights) per
+        // constraint.
+        let mut skipped = unsafe {
+            match self.quad_model {
+                QuadModel::Dihedral => project_batches_of::<4, Dihedral>(
+                    team,
+                    x,
+                    w,
+                    (quads, &self.quad_rest),
+                    hinges,
+                    batches,
+                    terms,
+                ),
+                QuadModel::Isometric => project_batches_of::<4, Isometric>(
+                    team,
+                    x,
+                    w,
+                    (quads, &self.quad_weights),
+                    hinges,
+                    batches,
+                    terms,
+                ),
             }
         };
-        // SAFETY: the contract, as said above.
+        // SAFETY: as for the hinges.
         skipped += unsafe {
-            project_batches(
+            project_batches_of::<3, EdgeAngle>(
                 team,
                 x,
                 w,
-                triples,
+                (&self.triples, &self.triple_rest),
                 &mut self.triple_lambda,
                 &self.triple_batches,
-                &|k, xs, ws, lambda| project_edge_angle(xs, ws, rest[k], alpha, lambda, h),
-                Some(&colour),
+                terms,
             )
         };
         self.skipped = skipped;

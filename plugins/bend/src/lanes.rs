@@ -1,7 +1,7 @@
-//! The dihedral hinge pass and the edge-angle pass four constraints at a time, in the
-//! processor's 256-bit lanes (AVX2), where the processor has them: the same arithmetic as
-//! [`project_dihedral`] and [`project_edge_angle`], operation for operation and in the same
-//! order (no fused multiply-add, whose single rounding would differ), so every position,
+//! The dihedral hinge pass, the edge-angle pass and the isometric hinge pass four constraints
+//! at a time, in the processor's 256-bit lanes (AVX2), where the processor has them: the same
+//! arithmetic as [`project_dihedral`], [`project_edge_angle`] and [`project_isometric`],
+//! operation for operation and in the same order (no fused multiply-add, whose single rounding would differ), so every position,
 //! multiplier and skip comes out with the same bits as the one-at-a-time kernel. The four
 //! constraints of a lane group are consecutive constraints of one colour, so they share no
 //! particle: their corrections are computed together and written back one by one. The
@@ -25,7 +25,12 @@
 //! * [`wrap_angle`] (hinges only): both wrapped values, kept by the two comparisons;
 //! * [`delta_lambda`]'s guard on the denominator: `+0` where it returns `0.0`, and the
 //!   correction still applied then (it may turn a `−0` coordinate into `+0`, as the scalar
-//!   code does).
+//!   code does);
+//! * [`project_isometric`]'s tests (isometric hinges only; its XPBD step is its own, one
+//!   division for `Δλ` and `Δx`): `|v|² ≥ MIN_V²` and finite, and the denominator above the
+//!   smallest normal number and finite with `Σ wK'² > 0`; a lane failing any of them is skipped,
+//!   as the scalar code skips the hinge. Each hinge's weights `K'` are loaded four hinges at a
+//!   time and transposed into lanes.
 //!
 //! Why: within a colour the constraints are independent, but the one-at-a-time kernel is a
 //! long chain of dependent operations (for a hinge three cross products, a square root, two
@@ -33,7 +38,9 @@
 //! hundred and forty operations; for an angle three cross products, a square root and the same
 //! `atan2`, some hundred), and the processor's reorder window holds few constraints at once;
 //! the lanes do each operation for four, and take no branch on the data (the one-at-a-time
-//! `atan2` mispredicts often). Measured in the crate docs' "Cost" section: 3–4.5× per pass.
+//! `atan2` mispredicts often). Measured in the crate docs' "Cost" section: 3–4.5× per pass. The
+//! isometric hinge (some forty operations, no `atan2`) gains as much: one at a time it took
+//! twice as long as a dihedral hinge in the lanes.
 //!
 //! The lanes' loads, stores and `DVec3` arithmetic are the SDK's [`nucleus_sdk::lanes`]; the
 //! operations only these kernels need (`cross`, `atan2`, ...) and the end both share (the XPBD
@@ -41,6 +48,7 @@
 //!
 //! [`project_dihedral`]: crate::dihedral::project_dihedral
 //! [`project_edge_angle`]: crate::angle::project_edge_angle
+//! [`project_isometric`]: crate::bergou2006_isometric::project_isometric
 //! [`edge_angle_gradient`]: crate::angle::edge_angle_gradient
 //! [`xpbd_correction`]: crate::step::xpbd_correction
 //! [`atan2`]: crate::trig::atan2
@@ -53,6 +61,7 @@ use nucleus_sdk::lanes::avx2_available;
 use nucleus_sdk::team::SharedArray;
 
 use crate::angle::project_edge_angle;
+use crate::bergou2006_isometric::project_isometric;
 use crate::dihedral::project_dihedral;
 use crate::step::Correction;
 
@@ -64,28 +73,156 @@ pub(crate) struct PassTerms {
     pub h: f64,
 }
 
-/// Projects the constraints `ids[k]` in order, one at a time, with `kernel` (`(positions,
-/// inverse masses, rest, alpha, λ, h)` to a correction, `None` to skip: [`project_dihedral`],
-/// [`project_edge_angle`]) towards `rest[k]`, accumulating each one's multiplier in
-/// `lambda[k]`. Returns how many were skipped.
+/// A kind of constraint of `N` particles that the lanes project: its one-at-a-time kernel
+/// and, on x86_64, its four-lane kernel with the same bits.
+pub(crate) trait Lanes<const N: usize> {
+    /// What each constraint holds besides its particles: a rest angle (rad), or the
+    /// isometric weights `K'` (1/m).
+    type Rest: Copy;
+
+    /// The one-at-a-time kernel: `(positions, inverse masses, rest, alpha, λ, h)` to a
+    /// correction, `None` to skip.
+    fn one(
+        x: &[DVec3; N],
+        w: &[f64; N],
+        rest: Self::Rest,
+        alpha: f64,
+        lambda: f64,
+        h: f64,
+    ) -> Option<Correction<N>>;
+
+    /// The four-lane kernel on constraints in groups of four (`ids.len()`, `rest.len()` and
+    /// `lambda.len()` equal and a multiple of 4). Returns how many were skipped.
+    ///
+    /// # Safety
+    /// As [`project_colour`]; AVX2 is present.
+    #[cfg(target_arch = "x86_64")]
+    unsafe fn fours(
+        x: SharedArray<DVec3>,
+        w: &[f64],
+        ids: &[[u32; N]],
+        rest: &[Self::Rest],
+        lambda: &mut [f64],
+        terms: PassTerms,
+    ) -> u64;
+}
+
+/// The dihedral hinges ([`project_dihedral`] towards a rest angle): `bend` on surfaces,
+/// `twist`.
+pub(crate) struct Dihedral;
+
+/// The edge angles ([`project_edge_angle`] towards a rest angle): `shear`, `bend` on curves.
+pub(crate) struct EdgeAngle;
+
+/// Bergou's isometric hinges ([`project_isometric`] with the hinge's weights):
+/// `bend_isometric`.
+pub(crate) struct Isometric;
+
+impl Lanes<4> for Dihedral {
+    type Rest = f64;
+
+    #[inline]
+    fn one(
+        x: &[DVec3; 4],
+        w: &[f64; 4],
+        rest: f64,
+        alpha: f64,
+        l: f64,
+        h: f64,
+    ) -> Option<Correction<4>> {
+        project_dihedral(x, w, rest, alpha, l, h)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    unsafe fn fours(
+        x: SharedArray<DVec3>,
+        w: &[f64],
+        ids: &[[u32; 4]],
+        rest: &[f64],
+        lambda: &mut [f64],
+        terms: PassTerms,
+    ) -> u64 {
+        // SAFETY: the caller's contract.
+        unsafe { avx2::project_hinge_fours(x, w, ids, rest, lambda, terms) }
+    }
+}
+
+impl Lanes<3> for EdgeAngle {
+    type Rest = f64;
+
+    #[inline]
+    fn one(
+        x: &[DVec3; 3],
+        w: &[f64; 3],
+        rest: f64,
+        alpha: f64,
+        l: f64,
+        h: f64,
+    ) -> Option<Correction<3>> {
+        project_edge_angle(x, w, rest, alpha, l, h)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    unsafe fn fours(
+        x: SharedArray<DVec3>,
+        w: &[f64],
+        ids: &[[u32; 3]],
+        rest: &[f64],
+        lambda: &mut [f64],
+        terms: PassTerms,
+    ) -> u64 {
+        // SAFETY: the caller's contract.
+        unsafe { avx2::project_angle_fours(x, w, ids, rest, lambda, terms) }
+    }
+}
+
+impl Lanes<4> for Isometric {
+    type Rest = [f64; 4];
+
+    #[inline]
+    fn one(
+        x: &[DVec3; 4],
+        w: &[f64; 4],
+        k: [f64; 4],
+        alpha: f64,
+        l: f64,
+        h: f64,
+    ) -> Option<Correction<4>> {
+        project_isometric(x, &k, w, alpha, l, h)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    unsafe fn fours(
+        x: SharedArray<DVec3>,
+        w: &[f64],
+        ids: &[[u32; 4]],
+        weights: &[[f64; 4]],
+        lambda: &mut [f64],
+        terms: PassTerms,
+    ) -> u64 {
+        // SAFETY: the caller's contract.
+        unsafe { avx2::project_isometric_fours(x, w, ids, weights, lambda, terms) }
+    }
+}
+
+/// Projects the constraints `ids[k]` in order, one at a time, with `K`'s one-constraint
+/// kernel ([`project_dihedral`], [`project_edge_angle`], [`project_isometric`]) and `rest[k]`,
+/// accumulating each one's multiplier in `lambda[k]`: the reference the four-lane kernel must
+/// match bit for bit, its fallback, and (as the groups' `step`) the kernel of a batch whose
+/// constraints share particles. Returns how many were skipped.
 ///
 /// # Safety
 /// `x` points to more positions than the largest index of `ids`, valid for the duration of the
 /// call; each constraint's indices are distinct; no other thread reads or writes the positions
 /// of these constraints' particles meanwhile.
-#[inline]
-unsafe fn project_one_by_one<const N: usize, K>(
+pub(crate) unsafe fn project_one_by_one<const N: usize, K: Lanes<N>>(
     x: SharedArray<DVec3>,
     w: &[f64],
     ids: &[[u32; N]],
-    rest: &[f64],
+    rest: &[K::Rest],
     lambda: &mut [f64],
     terms: PassTerms,
-    kernel: K,
-) -> u64
-where
-    K: Fn(&[DVec3; N], &[f64; N], f64, f64, f64, f64) -> Option<Correction<N>>,
-{
+) -> u64 {
     let mut skipped = 0;
     for ((c, &rest), lambda) in ids.iter().zip(rest).zip(lambda) {
         let ws = c.map(|i| w[i as usize]);
@@ -93,7 +230,7 @@ where
         // no other thread touches them.
         unsafe {
             let pos = c.map(|i| *x.at(i as usize));
-            match kernel(&pos, &ws, rest, terms.alpha, *lambda, terms.h) {
+            match K::one(&pos, &ws, rest, terms.alpha, *lambda, terms.h) {
                 Some(correction) => {
                     for (&i, dx) in c.iter().zip(&correction.dx) {
                         *x.at(i as usize) += *dx;
@@ -107,59 +244,19 @@ where
     skipped
 }
 
-/// Projects the hinges `ids[k]` in order, one at a time, with [`project_dihedral`] towards
-/// `rest[k]`, accumulating each hinge's multiplier in `lambda[k]`: the reference the four-lane
-/// kernel must match bit for bit, its fallback, and the kernel of a batch whose hinges share
-/// particles. Returns how many hinges were skipped.
+/// Projects the constraints `ids[k]` of one colour (no two share a particle), in order, as
+/// [`project_one_by_one`] does and with its bits, four at a time where the processor can
+/// ([`avx2_available`]). Returns how many were skipped.
 ///
 /// # Safety
-/// `x` points to more positions than the largest index of `ids`, valid for the duration of the
-/// call; each hinge's four indices are distinct; no other thread reads or writes the positions
-/// of these hinges' particles meanwhile.
-pub(crate) unsafe fn project_hinges_one_by_one(
-    x: SharedArray<DVec3>,
-    w: &[f64],
-    ids: &[[u32; 4]],
-    rest: &[f64],
-    lambda: &mut [f64],
-    terms: PassTerms,
-) -> u64 {
-    // SAFETY: the caller's contract.
-    unsafe { project_one_by_one(x, w, ids, rest, lambda, terms, project_dihedral) }
-}
-
-/// Projects the angles `ids[k]` (`[i, j, k]`, the angle at `j`) in order, one at a time, with
-/// [`project_edge_angle`] towards `rest[k]`, accumulating each angle's multiplier in
-/// `lambda[k]`: the reference the four-lane kernel must match bit for bit, and its fallback.
-/// Returns how many angles were skipped.
-///
-/// # Safety
-/// As [`project_hinges_one_by_one`], for angles of three distinct particles.
-pub(crate) unsafe fn project_angles_one_by_one(
-    x: SharedArray<DVec3>,
-    w: &[f64],
-    ids: &[[u32; 3]],
-    rest: &[f64],
-    lambda: &mut [f64],
-    terms: PassTerms,
-) -> u64 {
-    // SAFETY: the caller's contract.
-    unsafe { project_one_by_one(x, w, ids, rest, lambda, terms, project_edge_angle) }
-}
-
-/// Projects the hinges `ids[k]` of one colour (no two share a particle), in order, as
-/// [`project_hinges_one_by_one`] does and with its bits, four at a time where the processor
-/// can ([`avx2_available`]). Returns how many hinges were skipped.
-///
-/// # Safety
-/// As [`project_hinges_one_by_one`], and no two of the hinges share a particle.
+/// As [`project_one_by_one`], and no two of the constraints share a particle.
 ///
 /// [`avx2_available`]: nucleus_sdk::lanes::avx2_available
-pub(crate) unsafe fn project_hinge_colour(
+pub(crate) unsafe fn project_colour<const N: usize, K: Lanes<N>>(
     x: SharedArray<DVec3>,
     w: &[f64],
-    ids: &[[u32; 4]],
-    rest: &[f64],
+    ids: &[[u32; N]],
+    rest: &[K::Rest],
     lambda: &mut [f64],
     terms: PassTerms,
 ) -> u64 {
@@ -169,42 +266,12 @@ pub(crate) unsafe fn project_hinge_colour(
         let (four, left) = lambda.split_at_mut(whole);
         // SAFETY: AVX2 is present (checked above); the rest is the caller's contract.
         unsafe {
-            return avx2::project_hinge_fours(x, w, &ids[..whole], &rest[..whole], four, terms)
-                + project_hinges_one_by_one(x, w, &ids[whole..], &rest[whole..], left, terms);
+            return K::fours(x, w, &ids[..whole], &rest[..whole], four, terms)
+                + project_one_by_one::<N, K>(x, w, &ids[whole..], &rest[whole..], left, terms);
         }
     }
     // SAFETY: the caller's contract.
-    unsafe { project_hinges_one_by_one(x, w, ids, rest, lambda, terms) }
-}
-
-/// Projects the angles `ids[k]` of one colour (no two share a particle), in order, as
-/// [`project_angles_one_by_one`] does and with its bits, four at a time where the processor
-/// can ([`avx2_available`]). Returns how many angles were skipped.
-///
-/// # Safety
-/// As [`project_angles_one_by_one`], and no two of the angles share a particle.
-///
-/// [`avx2_available`]: nucleus_sdk::lanes::avx2_available
-pub(crate) unsafe fn project_angle_colour(
-    x: SharedArray<DVec3>,
-    w: &[f64],
-    ids: &[[u32; 3]],
-    rest: &[f64],
-    lambda: &mut [f64],
-    terms: PassTerms,
-) -> u64 {
-    #[cfg(target_arch = "x86_64")]
-    if rest.len() == ids.len() && lambda.len() == ids.len() && avx2_available() {
-        let whole = ids.len() / 4 * 4;
-        let (four, left) = lambda.split_at_mut(whole);
-        // SAFETY: AVX2 is present (checked above); the rest is the caller's contract.
-        unsafe {
-            return avx2::project_angle_fours(x, w, &ids[..whole], &rest[..whole], four, terms)
-                + project_angles_one_by_one(x, w, &ids[whole..], &rest[whole..], left, terms);
-        }
-    }
-    // SAFETY: the caller's contract.
-    unsafe { project_angles_one_by_one(x, w, ids, rest, lambda, terms) }
+    unsafe { project_one_by_one::<N, K>(x, w, ids, rest, lambda, terms) }
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -216,6 +283,7 @@ mod avx2 {
 
     use super::*;
     use crate::angle::{MIN_LENGTH as EDGE_MIN_LENGTH, MIN_SIN};
+    use crate::bergou2006_isometric::MIN_V;
     use crate::dihedral::MIN_LENGTH as HINGE_MIN_LENGTH;
     use crate::trig::{MOREBITS, P, Q, T3P8, UNREDUCED_MAX};
 
@@ -419,28 +487,56 @@ mod avx2 {
 
             // Apply where the one-constraint kernel returns a correction; skip elsewhere.
             let apply = _mm256_and_pd(ok, movable);
-            for r in 0..N {
-                let dx = scale(&grad[r], _mm256_mul_pd(ws[r], delta_lambda));
-                // SAFETY: the caller's contract.
-                unsafe { store(p, k[r], &moved(&xs[r], &dx, apply)) };
-            }
-            let lambda_out = select(apply, _mm256_add_pd(lambda_in, delta_lambda), lambda_in);
-            // SAFETY: as for the load of `lambda`.
-            unsafe { _mm256_storeu_pd(lambda.as_mut_ptr(), lambda_out) };
-            4 - u64::from(_mm256_movemask_pd(apply).count_ones())
+            let dx = |r: usize| scale(&grad[r], _mm256_mul_pd(ws[r], delta_lambda));
+            // SAFETY: the caller's contract.
+            unsafe { write_back(p, k, xs, dx, apply, lambda_in, delta_lambda, lambda) }
         }
     }
 
+    /// The write-back both ends share: the particles `k` (role by role, lane by lane) at `xs`
+    /// moved by `dx(role)` and the multipliers at `lambda` (four, `lambda_in` as loaded) increased by
+    /// `delta_lambda`, in the lanes `apply` (where the one-constraint kernel returns a
+    /// correction), the others left as they are, bit for bit. Returns how many lanes were
+    /// skipped.
+    ///
+    /// # Safety
+    /// As [`Xpbd::correct`].
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn write_back<const N: usize>(
+        p: *mut DVec3,
+        k: &[[usize; 4]; N],
+        xs: &[Lanes3; N],
+        dx: impl Fn(usize) -> Lanes3,
+        apply: __m256d,
+        lambda_in: __m256d,
+        delta_lambda: __m256d,
+        lambda: &mut [f64],
+    ) -> u64 {
+        for r in 0..N {
+            // SAFETY: the caller's contract.
+            unsafe { store(p, k[r], &moved(&xs[r], &dx(r), apply)) };
+        }
+        let lambda_out = select(apply, _mm256_add_pd(lambda_in, delta_lambda), lambda_in);
+        debug_assert_eq!(lambda.len(), 4);
+        // SAFETY: `lambda` holds four values (the caller's contract).
+        unsafe { _mm256_storeu_pd(lambda.as_mut_ptr(), lambda_out) };
+        4 - u64::from(_mm256_movemask_pd(apply).count_ones())
+    }
+
     /// The particles of each role `r` of four constraints `ids`, lane by lane, their inverse
-    /// masses and their positions.
+    /// masses and their positions. `K`, the calling kernel's kind, is there only to give each
+    /// kernel its own copy: LLVM inlines a copy with one caller, and did not inline one shared
+    /// by two kernels (a call per four hinges, some 10 % of the dihedral pass).
     ///
     /// # Safety
     /// Every index of `ids` indexes a point of `p` that no other thread writes meanwhile and
     /// is below `w.len()`; AVX2 is present.
-    #[allow(clippy::type_complexity)]
+    #[allow(clippy::type_complexity, clippy::extra_unused_type_parameters)]
     #[inline]
     #[target_feature(enable = "avx2")]
-    unsafe fn gather<const N: usize>(
+    unsafe fn gather<const N: usize, K>(
         p: *const DVec3,
         w: &[f64],
         ids: &[[u32; N]],
@@ -472,7 +568,7 @@ mod avx2 {
     /// reproduces). Returns how many hinges were skipped.
     ///
     /// # Safety
-    /// As [`super::project_hinge_colour`]; AVX2 is present.
+    /// As [`super::project_colour`]; AVX2 is present.
     #[target_feature(enable = "avx2")]
     pub(super) unsafe fn project_hinge_fours(
         x: SharedArray<DVec3>,
@@ -493,7 +589,7 @@ mod avx2 {
             // The particles of role r (i, j, k, l) of the four hinges, lane by lane.
             // SAFETY: every index is below the positions' length and no other thread touches
             // these particles (the caller's contract); AVX2 is present.
-            let (k, ws, xs) = unsafe { gather(p, w, ids) };
+            let (k, ws, xs) = unsafe { gather::<_, Dihedral>(p, w, ids) };
 
             // `hinge`: the axis, the wings, the normals and the degenerate tests.
             let e = sub(&xs[1], &xs[0]);
@@ -563,7 +659,7 @@ mod avx2 {
     /// step below names the scalar line it reproduces). Returns how many angles were skipped.
     ///
     /// # Safety
-    /// As [`super::project_angle_colour`]; AVX2 is present.
+    /// As [`super::project_colour`]; AVX2 is present.
     #[target_feature(enable = "avx2")]
     pub(super) unsafe fn project_angle_fours(
         x: SharedArray<DVec3>,
@@ -585,7 +681,7 @@ mod avx2 {
             // The particles of role r (i, j, k) of the four angles, lane by lane.
             // SAFETY: every index is below the positions' length and no other thread touches
             // these particles (the caller's contract); AVX2 is present.
-            let (k, ws, xs) = unsafe { gather(p, w, ids) };
+            let (k, ws, xs) = unsafe { gather::<_, EdgeAngle>(p, w, ids) };
 
             // `edge_angle_gradient`: the edges and their test,
             // `!(a_sq >= min_sq && b_sq >= min_sq)` (infinite lengths pass).
@@ -628,6 +724,134 @@ mod avx2 {
         }
         skipped
     }
+
+    /// The weights `K'` of four hinges (`weights` holds four), role by role: register `r`
+    /// holds `K'ᵣ` of the four hinges, lane by lane (a 4 × 4 transpose, no arithmetic).
+    ///
+    /// # Safety
+    /// AVX2 is present.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn transpose(weights: &[[f64; 4]]) -> [__m256d; 4] {
+        debug_assert_eq!(weights.len(), 4);
+        // SAFETY: `weights` holds four rows of four values (the caller's contract).
+        let [r0, r1, r2, r3] = unsafe {
+            [
+                _mm256_loadu_pd(weights[0].as_ptr()),
+                _mm256_loadu_pd(weights[1].as_ptr()),
+                _mm256_loadu_pd(weights[2].as_ptr()),
+                _mm256_loadu_pd(weights[3].as_ptr()),
+            ]
+        };
+        let (t0, t1) = (_mm256_unpacklo_pd(r0, r1), _mm256_unpackhi_pd(r0, r1));
+        let (t2, t3) = (_mm256_unpacklo_pd(r2, r3), _mm256_unpackhi_pd(r2, r3));
+        [
+            _mm256_permute2f128_pd::<0x20>(t0, t2),
+            _mm256_permute2f128_pd::<0x20>(t1, t3),
+            _mm256_permute2f128_pd::<0x31>(t0, t2),
+            _mm256_permute2f128_pd::<0x31>(t1, t3),
+        ]
+    }
+
+    /// The isometric hinges in groups of four (`ids.len()`, `weights.len()` and
+    /// `lambda.len()` equal and a multiple of 4): [`project_isometric`] of each lane, its
+    /// `curvature_vector`, its two tests and its XPBD step in the same operations as the
+    /// scalar code (each step below names the scalar line it reproduces). Its step is its own
+    /// (`Δλ` and `Δx` through one division, and a denominator out of range skips the hinge),
+    /// so only the write-back is [`Xpbd::correct`]'s. Returns how many hinges were skipped.
+    ///
+    /// # Safety
+    /// As [`super::project_colour`]; AVX2 is present.
+    ///
+    /// [`project_isometric`]: crate::bergou2006_isometric::project_isometric
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn project_isometric_fours(
+        x: SharedArray<DVec3>,
+        w: &[f64],
+        ids: &[[u32; 4]],
+        weights: &[[f64; 4]],
+        lambda: &mut [f64],
+        terms: PassTerms,
+    ) -> u64 {
+        let p = x.at(0);
+        let zero = _mm256_setzero_pd();
+        let infinity = _mm256_set1_pd(f64::INFINITY);
+        let min_v_sq = _mm256_set1_pd(MIN_V * MIN_V);
+        let Xpbd { alpha_tilde } = Xpbd::new(terms);
+        let mut skipped = 0;
+        let chunks = ids.chunks_exact(4).zip(weights.chunks_exact(4));
+        for ((ids, weights), lambda) in chunks.zip(lambda.chunks_exact_mut(4)) {
+            // The particles of role r (i, j, k, l) of the four hinges, lane by lane, and
+            // their weights.
+            // SAFETY: every index is below the positions' length and no other thread touches
+            // these particles (the caller's contract); AVX2 is present; `weights` holds four
+            // (`chunks_exact`).
+            let (k, ws, xs) = unsafe { gather::<_, Isometric>(p, w, ids) };
+            let kw = unsafe { transpose(weights) };
+
+            // `curvature_vector`: `(x₁ − x₀) K'₁ + (x₂ − x₀) K'₂ + (x₃ − x₀) K'₃`.
+            let v = add(
+                &add(
+                    &scale(&sub(&xs[1], &xs[0]), kw[1]),
+                    &scale(&sub(&xs[2], &xs[0]), kw[2]),
+                ),
+                &scale(&sub(&xs[3], &xs[0]), kw[3]),
+            );
+            // `c_sq = v.length_squared()`, `!(c_sq >= MIN_V * MIN_V && c_sq.is_finite())`.
+            let c_sq = dot(&v, &v);
+            let bent = _mm256_and_pd(
+                _mm256_cmp_pd::<_CMP_GE_OQ>(c_sq, min_v_sq),
+                _mm256_cmp_pd::<_CMP_LT_OQ>(c_sq, infinity),
+            );
+            let c = _mm256_sqrt_pd(c_sq);
+            // `w₀ K'₀ K'₀ + w₁ K'₁ K'₁ + w₂ K'₂ K'₂ + w₃ K'₃ K'₃`, left to right; `w K'` is
+            // also each particle's factor of the correction.
+            let mut wk = kw;
+            for r in 0..4 {
+                wk[r] = _mm256_mul_pd(ws[r], kw[r]);
+            }
+            let w_grad_sq = _mm256_add_pd(
+                _mm256_add_pd(
+                    _mm256_add_pd(_mm256_mul_pd(wk[0], kw[0]), _mm256_mul_pd(wk[1], kw[1])),
+                    _mm256_mul_pd(wk[2], kw[2]),
+                ),
+                _mm256_mul_pd(wk[3], kw[3]),
+            );
+            // `denom = w_grad_sq + alpha_tilde`,
+            // `!(denom > f64::MIN_POSITIVE && denom.is_finite() && w_grad_sq > 0.0)`.
+            let denom = _mm256_add_pd(w_grad_sq, alpha_tilde);
+            let movable = _mm256_and_pd(
+                _mm256_and_pd(
+                    _mm256_cmp_pd::<_CMP_GT_OQ>(denom, _mm256_set1_pd(f64::MIN_POSITIVE)),
+                    _mm256_cmp_pd::<_CMP_LT_OQ>(denom, infinity),
+                ),
+                _mm256_cmp_pd::<_CMP_GT_OQ>(w_grad_sq, zero),
+            );
+            // `f = (−c − alpha_tilde λ) / (denom c)`, `Δxᵢ = v (wᵢ K'ᵢ f)`, `Δλ = f c`.
+            // SAFETY: `lambda` holds four values (`chunks_exact_mut`).
+            let lambda_in = unsafe { _mm256_loadu_pd(lambda.as_ptr()) };
+            let f = _mm256_div_pd(
+                _mm256_sub_pd(neg(c), _mm256_mul_pd(alpha_tilde, lambda_in)),
+                _mm256_mul_pd(denom, c),
+            );
+            let dx = |r: usize| scale(&v, _mm256_mul_pd(wk[r], f));
+            let apply = _mm256_and_pd(bent, movable);
+            // SAFETY: as for the loads; the sixteen particles are distinct (one colour).
+            skipped += unsafe {
+                write_back(
+                    p,
+                    &k,
+                    &xs,
+                    dx,
+                    apply,
+                    lambda_in,
+                    _mm256_mul_pd(f, c),
+                    lambda,
+                )
+            };
+        }
+        skipped
+    }
 }
 
 #[cfg(test)]
@@ -635,21 +859,23 @@ mod tests {
     use std::f64::consts::PI;
 
     use super::*;
+    use crate::bergou2006_isometric::isometric_weights;
     use crate::testutil::{Draws, Rng};
 
-    /// One colour of constraints of `N` particles (hinges, angles) with its particles.
-    struct Colour<const N: usize> {
+    /// One colour of constraints of `N` particles (hinges, angles) with its particles, and
+    /// each constraint's rest angle or weights.
+    struct Colour<const N: usize, R = f64> {
         x: Vec<DVec3>,
         w: Vec<f64>,
         ids: Vec<[u32; N]>,
-        rest: Vec<f64>,
+        rest: Vec<R>,
         lambda: Vec<f64>,
     }
 
-    /// A colour kernel's signature: [`project_hinges_one_by_one`] or [`project_hinge_colour`]
-    /// (`N = 4`), [`project_angles_one_by_one`] or [`project_angle_colour`] (`N = 3`).
-    type Kernel<const N: usize> =
-        unsafe fn(SharedArray<DVec3>, &[f64], &[[u32; N]], &[f64], &mut [f64], PassTerms) -> u64;
+    /// A colour kernel's signature: [`project_one_by_one`] or [`project_colour`] of a
+    /// [`Lanes`] kind.
+    type Kernel<const N: usize, R> =
+        unsafe fn(SharedArray<DVec3>, &[f64], &[[u32; N]], &[R], &mut [f64], PassTerms) -> u64;
 
     /// What a pass leaves: the positions' and multipliers' bits and the skip count.
     type Outcome = (Vec<[u64; 3]>, Vec<u64>, u64);
@@ -660,10 +886,10 @@ mod tests {
             .collect()
     }
 
-    impl<const N: usize> Colour<N> {
+    impl<const N: usize, R> Colour<N, R> {
         /// The positions, multipliers and skip count after `kernel` projects every constraint
         /// once, from copies of `x` and `lambda`.
-        fn pass(&self, kernel: Kernel<N>, terms: PassTerms) -> Outcome {
+        fn pass(&self, kernel: Kernel<N, R>, terms: PassTerms) -> Outcome {
             let (mut x, mut lambda) = (self.x.clone(), self.lambda.clone());
             // SAFETY: every index is below the number of particles, the `N` of a constraint
             // are distinct, no two constraints share a particle, and one thread owns the
@@ -680,6 +906,27 @@ mod tests {
             };
             let lambda = lambda.iter().map(|l| l.to_bits()).collect();
             (bits(&x), lambda, skipped)
+        }
+
+        /// 4,003 constraints on `4,003 N` particles, no particle shared: constraint `k` takes
+        /// the particles `N (7919 k mod 4003) + roles[r]` (a permutation, 4,003 being prime, so
+        /// its `N` are scattered over the array). Random inverse masses and multipliers;
+        /// positions at the origin and no rest values, for the caller to set.
+        fn scattered(rng: &mut Rng, roles: [u32; N]) -> Self {
+            let count = 4003;
+            let particles = N * count;
+            let w = (0..particles).map(|_| rng.inv_mass()).collect();
+            let ids = (0..count as u32)
+                .map(|k| roles.map(|r| N as u32 * (k * 7919 % count as u32) + r))
+                .collect();
+            let lambda = (0..count).map(|_| rng.range(-1e-4, 1e-4)).collect();
+            Self {
+                x: vec![DVec3::ZERO; particles],
+                w,
+                ids,
+                rest: Vec::with_capacity(count),
+                lambda,
+            }
         }
 
         /// Asserts that the particles are one colour: no particle in two constraints.
@@ -699,7 +946,9 @@ mod tests {
             if alpha < 1e300 {
                 assert_ne!(*x_one, bits(&self.x), "the pass moved particles");
             }
-            assert!(*skipped_one > 0 && (*skipped_one as usize) < self.ids.len());
+            // Everything skipped only where `α̃` is infinite (the isometric kernel's guard).
+            assert!(*skipped_one > 0);
+            assert!((*skipped_one as usize) < self.ids.len() || alpha > 1e300);
             assert_eq!(skipped_one, skipped_four, "α = {alpha}");
             for (k, (one, four)) in x_one.iter().zip(x_four).enumerate() {
                 assert_eq!(one, four, "α = {alpha}, particle {k}");
@@ -735,21 +984,9 @@ mod tests {
     /// zero-area wing or one just at the height limit, NaN and infinite positions, sizes whose
     /// squares overflow, negative zeros, two or all inverse masses zero, a NaN one, subnormal ones.
     fn hinge_colour(rng: &mut Rng) -> Colour<4> {
-        let hinges = 4003;
-        let particles = 4 * hinges;
-        let mut x = vec![DVec3::ZERO; particles];
-        let mut w: Vec<f64> = (0..particles).map(|_| rng.inv_mass()).collect();
-        // Hinge k takes the particles 4 (p k mod 4003) + r for the prime p = 7919, a
-        // permutation (4,003 is prime), so its four are scattered over the array.
-        let ids: Vec<[u32; 4]> = (0..hinges as u32)
-            .map(|k| {
-                let b = 4 * (k * 7919 % hinges as u32);
-                [b + 2, b, b + 3, b + 1]
-            })
-            .collect();
-        let mut rest = Vec::with_capacity(hinges);
-        let lambda = (0..hinges).map(|_| rng.range(-1e-4, 1e-4)).collect();
-        for (k, ids) in ids.iter().enumerate() {
+        let mut c = Colour::scattered(rng, [2, 0, 3, 1]);
+        for k in 0..c.ids.len() {
+            let ids = c.ids[k];
             let case = k % 23;
             let phi = match case {
                 0 => 0.0,
@@ -768,48 +1005,41 @@ mod tests {
             let mut p = hinge(rng, phi, scale);
             let [i, j, kk, l] = ids.map(|i| i as usize);
             match case {
-                8 => p = [p[0]; 4],                                     // all coincident
-                9 => p[1] = p[0],                                       // zero-length axis
-                10 => p[2] = p[0] + (p[1] - p[0]) * 0.37,               // zero-area wing k
-                11 => p[3] = p[1] + (p[1] - p[0]) * 2.0,                // wing l on the axis
-                12 => p[3].y = f64::NAN,                                // a NaN position
-                13 => p[0].z = f64::INFINITY,                           // an infinite one
-                14 => (w[i], w[j], w[kk], w[l]) = (0.0, 0.0, 0.0, 0.0), // all pinned
-                15 => (w[i], w[l]) = (0.0, 0.0),                        // two pinned
-                16 => w[kk] = f64::NAN,                                 // a NaN inverse mass
-                17 => p[1] = p[0] + (p[1] - p[0]) * 1e-13,              // axis just below the limit
+                8 => p = [p[0]; 4],                                             // all coincident
+                9 => p[1] = p[0],                                               // zero-length axis
+                10 => p[2] = p[0] + (p[1] - p[0]) * 0.37,                       // zero-area wing k
+                11 => p[3] = p[1] + (p[1] - p[0]) * 2.0, // wing l on the axis
+                12 => p[3].y = f64::NAN,                 // a NaN position
+                13 => p[0].z = f64::INFINITY,            // an infinite one
+                14 => (c.w[i], c.w[j], c.w[kk], c.w[l]) = (0.0, 0.0, 0.0, 0.0), // all pinned
+                15 => (c.w[i], c.w[l]) = (0.0, 0.0),     // two pinned
+                16 => c.w[kk] = f64::NAN,                // a NaN inverse mass
+                17 => p[1] = p[0] + (p[1] - p[0]) * 1e-13, // axis just below the limit
                 18 => {
                     // Negative zeros where the correction may be ±0.
                     p[0] = DVec3::new(-0.0, 0.0, -0.0);
-                    w[i] = 0.0;
+                    c.w[i] = 0.0;
                 }
                 19 => {
                     // Subnormal inverse masses: `delta_lambda`'s denominator below the
                     // smallest normal number when rigid, so Δλ = 0.
-                    (w[i], w[j], w[kk], w[l]) = (1e-310, 1e-310, 1e-310, 1e-310);
+                    (c.w[i], c.w[j], c.w[kk], c.w[l]) = (1e-310, 1e-310, 1e-310, 1e-310);
                 }
                 _ => {}
             }
             for (r, q) in ids.iter().zip(p) {
-                x[*r as usize] = q;
+                c.x[*r as usize] = q;
             }
             // Rest angles across ±π from the current ones, exactly the current one, or any.
-            rest.push(match k % 7 {
+            c.rest.push(match k % 7 {
                 0 => -phi.signum() * (PI - rng.range(0.0, 0.3)),
                 1 => crate::dihedral::dihedral_angle(&p).unwrap_or(0.5),
                 2 => PI,
                 _ => rng.range(-PI, PI),
             });
         }
-        let colour = Colour {
-            x,
-            w,
-            ids,
-            rest,
-            lambda,
-        };
-        colour.assert_one_colour();
-        colour
+        c.assert_one_colour();
+        c
     }
 
     /// The lanes run only where the processor has AVX2: elsewhere the test below compares the
@@ -830,8 +1060,8 @@ mod tests {
         for alpha in [0.0, 1e-2, 5e3, 1e5, 1e305] {
             let terms = PassTerms { alpha, h };
             let c = hinge_colour(&mut rng);
-            let one = c.pass(project_hinges_one_by_one, terms);
-            let four = c.pass(project_hinge_colour, terms);
+            let one = c.pass(project_one_by_one::<4, Dihedral>, terms);
+            let four = c.pass(project_colour::<4, Dihedral>, terms);
             c.assert_same_bits(&one, &four, alpha);
         }
     }
@@ -920,23 +1150,11 @@ mod tests {
 
     fn angle_colour(rng: &mut Rng) -> Colour<3> {
         use crate::angle::{edge_angle, edge_angle_gradient, MIN_SIN};
-        let angles = 4003;
-        let particles = 3 * angles;
-        let mut x = vec![DVec3::ZERO; particles];
-        let mut w: Vec<f64> = (0..particles).map(|_| rng.inv_mass()).collect();
-        // Angle k takes the particles 3 (p k mod 4003) + r for the prime p = 7919, a
-        // permutation (4,003 is prime), so its three are scattered over the array.
-        let ids: Vec<[u32; 3]> = (0..angles as u32)
-            .map(|k| {
-                let b = 3 * (k * 7919 % angles as u32);
-                [b + 2, b, b + 1]
-            })
-            .collect();
-        let mut rest = Vec::with_capacity(angles);
-        let lambda = (0..angles).map(|_| rng.range(-1e-4, 1e-4)).collect();
+        let mut c = Colour::scattered(rng, [2, 0, 1]);
         // The near-collinear angles the one-angle kernel projects and skips.
         let (mut near_kept, mut near_skipped) = (0, 0);
-        for (k, ids) in ids.iter().enumerate() {
+        for k in 0..c.ids.len() {
+            let ids = c.ids[k];
             let case = k % 33;
             let phi = match case {
                 0 => 0.0,
@@ -972,18 +1190,18 @@ mod tests {
                 19 => (p[0], p[2]) = (p[1] + DVec3::Y * la, p[1] + DVec3::Y * lb), // folded
                 20 => p[2].y = f64::NAN,                   // a NaN position
                 21 => p[0].z = f64::INFINITY,              // an infinite one
-                22 => (w[i], w[j], w[kk]) = (0.0, 0.0, 0.0), // all pinned
-                23 => (w[i], w[kk]) = (0.0, 0.0),          // two pinned
-                24 => w[j] = f64::NAN,                     // a NaN inverse mass
+                22 => (c.w[i], c.w[j], c.w[kk]) = (0.0, 0.0, 0.0), // all pinned
+                23 => (c.w[i], c.w[kk]) = (0.0, 0.0),      // two pinned
+                24 => c.w[j] = f64::NAN,                   // a NaN inverse mass
                 25 => {
                     // Negative zeros where the correction may be ±0.
                     p[1] = DVec3::new(-0.0, 0.0, -0.0);
-                    w[j] = 0.0;
+                    c.w[j] = 0.0;
                 }
                 26 => {
                     // Subnormal inverse masses: `delta_lambda`'s denominator below the
                     // smallest normal number when rigid, so Δλ = 0.
-                    (w[i], w[j], w[kk]) = (1e-310, 1e-310, 1e-310);
+                    (c.w[i], c.w[j], c.w[kk]) = (1e-310, 1e-310, 1e-310);
                 }
                 29..=31 => p = at_a_limit(case, k / 33),
                 32 => p = between_the_bounds(rng),
@@ -999,10 +1217,10 @@ mod tests {
                 }
             }
             for (r, q) in ids.iter().zip(p) {
-                x[*r as usize] = q;
+                c.x[*r as usize] = q;
             }
             // Rest angles: the current one, straight, folded, or any.
-            rest.push(match k % 7 {
+            c.rest.push(match k % 7 {
                 0 => edge_angle(&p).unwrap_or(0.5),
                 1 => PI,
                 2 => 0.0,
@@ -1013,15 +1231,8 @@ mod tests {
             near_kept > 10 && near_skipped > 10,
             "{near_kept} {near_skipped}"
         );
-        let colour = Colour {
-            x,
-            w,
-            ids,
-            rest,
-            lambda,
-        };
-        colour.assert_one_colour();
-        colour
+        c.assert_one_colour();
+        c
     }
 
     #[test]
@@ -1034,8 +1245,138 @@ mod tests {
         for alpha in [0.0, 1e-3, 1e-2, 5e3, 1e5, 1e305] {
             let terms = PassTerms { alpha, h };
             let c = angle_colour(&mut rng);
-            let one = c.pass(project_angles_one_by_one, terms);
-            let four = c.pass(project_angle_colour, terms);
+            let one = c.pass(project_one_by_one::<3, EdgeAngle>, terms);
+            let four = c.pass(project_colour::<3, EdgeAngle>, terms);
+            c.assert_same_bits(&one, &four, alpha);
+        }
+    }
+
+    /// A random hinge of size `scale` (as [`hinge`]) flat, the weights `K'` of that rest
+    /// shape, and the same hinge folded by `phi`.
+    fn isometric_hinge(rng: &mut Rng, phi: f64, scale: f64) -> ([DVec3; 4], [f64; 4], [DVec3; 4]) {
+        let flat = hinge(&mut rng.clone(), 0.0, scale);
+        let k = isometric_weights(&flat).expect("a regular rest shape");
+        (flat, k, hinge(rng, phi, scale))
+    }
+
+    /// 4,003 isometric hinges on 16,012 particles (one colour, a tail of 3 for the one-hinge
+    /// kernel), with random shapes, fold angles, inverse masses and multipliers, and every
+    /// case the kernels treat apart: flat in the rest shape's plane (`|v|` of rounding only),
+    /// `v` exactly zero (all points coincident, zero weights, weights only on `x₀`), near flat
+    /// on both sides of `MIN_V`, `|v|²` exactly at `MIN_V²` or one ulp of `|v|` off, folded to
+    /// ±π and near it, random weights (not summing to zero) and huge or NaN ones, two points
+    /// coincident, NaN and infinite positions, sizes from 1e-160 (`|v|²` underflows) to 1e150
+    /// (it overflows) and 1e100 (`denom |v|` overflows when very soft), tiny and huge rest
+    /// shapes with their weights, negative zeros, two or all inverse masses zero, a NaN one,
+    /// subnormal ones.
+    fn isometric_colour(rng: &mut Rng) -> Colour<4, [f64; 4]> {
+        use crate::bergou2006_isometric::MIN_V;
+        let mut c = Colour::scattered(rng, [1, 3, 0, 2]);
+        let (mut flat_kept, mut flat_skipped) = (0, 0);
+        for k in 0..c.ids.len() {
+            let ids = c.ids[k];
+            let case = k % 31;
+            let phi = match case {
+                5 => PI - rng.range(0.0, 1e-9),
+                6 => -PI + rng.range(0.0, 1e-9),
+                7 => PI,
+                _ => rng.range(-PI, PI),
+            };
+            let scale = match case {
+                8 => 1e-7,
+                9 => 1e7,
+                _ => 1.0,
+            };
+            let (flat, mut kw, mut p) = isometric_hinge(rng, phi, scale);
+            let [i, j, kk, l] = ids.map(|i| i as usize);
+            match case {
+                0 => p = flat, // flat: `v` of rounding only, below `MIN_V`
+                1 => {
+                    // Near flat: wing l lifted off the plane by about `MIN_V / |K'₃|`, so
+                    // `|v|` falls on either side of `MIN_V`.
+                    let n = (flat[1] - flat[0]).cross(flat[2] - flat[0]).normalize();
+                    p = flat;
+                    p[3] += n * (MIN_V * rng.range(0.3, 3.0) / kw[3].abs());
+                }
+                2 => p = [p[0]; 4],               // all coincident: `v` = 0
+                3 => kw = [0.0; 4],               // no weights: `v` = 0, nothing movable
+                4 => kw = [kw[0], 0.0, 0.0, 0.0], // `v` = 0, yet movable
+                10 => kw[1 + k / 31 % 3] = 0.0,   // one zero weight
+                11 => kw = [0; 4].map(|_| rng.range(-3.0, 3.0)), // any weights
+                12 => kw[k / 31 % 4] = 1e160,     // `w K'²` overflows
+                13 => kw[k / 31 % 4] = f64::NAN,
+                14 => {
+                    // `|v|² = MIN_V²` exactly, or `|v|` one ulp below or above `MIN_V`.
+                    let m = [MIN_V.next_down(), MIN_V, MIN_V.next_up()][k / 31 % 3];
+                    p = [
+                        DVec3::ZERO,
+                        DVec3::new(0.0, m, 0.0),
+                        DVec3::new(0.5, 0.0, 1.0),
+                        DVec3::new(0.5, 0.0, -1.0),
+                    ];
+                    kw = [-1.0, 1.0, 0.0, 0.0];
+                }
+                15 => p[2] = p[0],               // two points coincident
+                16 => p[3].y = f64::NAN,         // a NaN position
+                17 => p[0].z = f64::INFINITY,    // an infinite one
+                18 => p = p.map(|q| q * 1e-160), // `|v|²` underflows to 0
+                19 => p = p.map(|q| q * 1e150),  // `|v|²` overflows
+                20 => p = p.map(|q| q * 1e100),  // `denom |v|` overflows when very soft
+                21 => (c.w[i], c.w[j], c.w[kk], c.w[l]) = (0.0, 0.0, 0.0, 0.0), // all pinned
+                22 => (c.w[i], c.w[l]) = (0.0, 0.0), // two pinned
+                23 => c.w[kk] = f64::NAN,        // a NaN inverse mass
+                24 => {
+                    // Negative zeros where the correction may be ±0.
+                    p[0] = DVec3::new(-0.0, 0.0, -0.0);
+                    c.w[i] = 0.0;
+                }
+                25 => {
+                    // Subnormal inverse masses: the denominator below the smallest normal
+                    // number when rigid.
+                    (c.w[i], c.w[j], c.w[kk], c.w[l]) = (1e-310, 1e-310, 1e-310, 1e-310);
+                }
+                26 => kw = kw.map(|k| k * 1e-160), // `w K'²` underflows
+                _ => {}
+            }
+            if case == 1 {
+                match project_isometric(&p, &kw, &[1.0; 4], 0.0, 0.0, 1.0) {
+                    Some(_) => flat_kept += 1,
+                    None => flat_skipped += 1,
+                }
+            }
+            if case == 14 {
+                let kept = project_isometric(&p, &kw, &[1.0; 4], 0.0, 0.0, 1.0).is_some();
+                assert_eq!(kept, k / 31 % 3 != 0, "at MIN_V: {p:?}");
+            }
+            for (r, q) in ids.iter().zip(p) {
+                c.x[*r as usize] = q;
+            }
+            c.rest.push(kw);
+        }
+        assert!(
+            flat_kept > 5 && flat_skipped > 5,
+            "{flat_kept} {flat_skipped}"
+        );
+        c.assert_one_colour();
+        c
+    }
+
+    #[test]
+    fn four_lanes_give_the_bits_of_the_one_isometric_kernel_on_colours_with_every_degenerate_case()
+    {
+        lanes_or_say_why_not();
+        if !avx2_available() {
+            return;
+        }
+        let mut rng = Rng(0x150);
+        let h = 1.0 / 600.0;
+        // Rigid, stiff, cotton, silk, so soft that `denom |v|` overflows for large hinges, and
+        // so soft that `α̃` is infinite (every hinge skipped).
+        for alpha in [0.0, 1e-2, 5e3, 1e5, 1e300, 1e305] {
+            let terms = PassTerms { alpha, h };
+            let c = isometric_colour(&mut rng);
+            let one = c.pass(project_one_by_one::<4, Isometric>, terms);
+            let four = c.pass(project_colour::<4, Isometric>, terms);
             c.assert_same_bits(&one, &four, alpha);
         }
     }
