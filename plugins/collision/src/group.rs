@@ -1528,7 +1528,13 @@ impl CollisionGroup {
     /// Takes and keeps candidate `k`'s separation over `[x0, x]` (for the kinds with a
     /// prefilter; `None` for the others), the first time a pass tests it.
     fn take_separation(&mut self, k: usize, x0: &[DVec3], x: &[DVec3]) -> Option<Separation> {
-        let tr = self.cand_ids[k].map(|i| track(x0, x, i));
+        let [a, b, c, d] = self.cand_ids[k];
+        let tr = [
+            track(x0, x, a),
+            track(x0, x, b),
+            track(x0, x, c),
+            track(x0, x, d),
+        ];
         let s = pairs::separation(self.candidates[k].kind, &tr)?;
         self.separation[k] = s;
         self.separation_moved[k] = self.candidate_moved(k);
