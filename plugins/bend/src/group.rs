@@ -15,8 +15,9 @@ use serde::{Deserialize, Serialize};
 use crate::angle::edge_angle;
 use crate::bergou2006_isometric::{curvature_vector, isometric_weights};
 use crate::dihedral::{dihedral_angle, wrap_angle};
-use crate::lanes::{project_colour, Dihedral, EdgeAngle, Isometric, Lanes, PassTerms};
-use crate::step::Correction;
+use crate::lanes::{
+    project_colour, project_one_by_one, Dihedral, EdgeAngle, Isometric, Lanes, PassTerms,
+};
 
 /// Which constraints a group holds; one per kind of this plugin.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -420,69 +421,49 @@ impl BendGroup {
     }
 }
 
-/// One constraint's XPBD step: `(k, positions, inverse masses, λ so far)` to its correction,
-/// `None` to skip it.
-type Step<'a, const N: usize> =
-    dyn Fn(usize, &[DVec3; N], &[f64; N], f64) -> Option<Correction<N>> + Sync + 'a;
-
-/// A kernel for a part of an independent batch, the alternative to `step` one by one:
-/// `(positions, multipliers, range)` projects the constraints `range` in order, with the bits
-/// `step` would give them, and returns how many it skipped ([`project_batches`] calls it only
-/// on a range it owns, of a batch whose constraints share no particle).
-type Colour<'a> = dyn Fn(SharedArray<DVec3>, SharedArray<f64>, Range<usize>) -> u64 + Sync + 'a;
-
-/// Projects the constraints `ids[k]` batch by batch, in order, each by `step`, accumulating
-/// its multiplier in `lambda[k]`; an independent batch of at least
-/// [`PARALLEL_MIN_CONSTRAINTS`] is split over `team` (see [`BendGroup::project`]). Each part
-/// of an independent batch (the whole batch when it is not split) goes to `colour` instead
-/// where one is given (the four-lane hinge or angle kernel, [`crate::lanes`]). Returns how
-/// many were skipped.
+/// Projects the constraints `ids[k]` (rest value or weights `rest[k]`) with `K`'s kernels,
+/// batch by batch, in order, accumulating each one's multiplier in `lambda[k]`, and returns
+/// how many were skipped. An independent batch goes four at a time where the processor can
+/// ([`project_colour`], with the bits of one at a time), split over `team` when it holds at
+/// least [`PARALLEL_MIN_CONSTRAINTS`]; a batch whose constraints may share particles (the
+/// overflow colour) goes one at a time ([`project_one_by_one`]) on this thread.
 ///
 /// # Safety
 /// Every index of `ids` is below `x.len()`, each constraint's indices are distinct, and the
 /// constraints of a batch flagged independent share no particle (as [`colour_order`] makes
 /// them).
-#[allow(clippy::too_many_arguments)]
-unsafe fn project_batches<const N: usize>(
+unsafe fn project_batches<const N: usize, K: Lanes<N>>(
     team: TeamRef<'_>,
-    x: &mut [DVec3],
-    w: &[f64],
-    ids: &[[u32; N]],
+    (x, w): (&mut [DVec3], &[f64]),
+    (ids, rest): (&[[u32; N]], &[K::Rest]),
     lambda: &mut [f64],
     batches: &[(Range<usize>, bool)],
-    step: &Step<'_, N>,
-    colour: Option<&Colour<'_>>,
-) -> u64 {
-    assert!(lambda.len() == ids.len() && batches.last().is_none_or(|b| b.0.end <= ids.len()));
+    terms: PassTerms,
+) -> u64
+where
+    K::Rest: Sync,
+{
+    assert!(
+        rest.len() == ids.len()
+            && lambda.len() == ids.len()
+            && batches.last().is_none_or(|b| b.0.end <= ids.len())
+    );
     let (xs, lambdas) = (SharedArray::new(x), SharedArray::new(lambda));
     let skipped = AtomicU64::new(0);
-    let run = |range: Range<usize>, independent: bool| {
-        if let (true, Some(colour)) = (independent, colour) {
-            skipped.fetch_add(colour(xs, lambdas, range), Ordering::Relaxed);
-            return;
-        }
-        let mut skip = 0;
-        for k in range {
-            let c = &ids[k];
-            let ws = c.map(|i| w[i as usize]);
-            // SAFETY: every index is in bounds and the constraint's particles are distinct (the
-            // caller's contract), and within one part of an independent batch no other part writes or
-            // reads them; a batch that is not split runs on this thread alone. `k` is below
-            // `lambda.len()` (asserted) and belongs to this part only.
-            unsafe {
-                let pos = c.map(|i| *xs.at(i as usize));
-                let lambda = &mut *lambdas.at(k);
-                match step(k, &pos, &ws, *lambda) {
-                    Some(correction) => {
-                        for (&i, dx) in c.iter().zip(&correction.dx) {
-                            *xs.at(i as usize) += *dx;
-                        }
-                        *lambda += correction.delta_lambda;
-                    }
-                    None => skip += 1,
-                }
+    let run = |r: Range<usize>, independent: bool| {
+        // SAFETY: `r` is a range of `ids` (and so of `rest` and of the multipliers, one per
+        // constraint; asserted) that this call or this part of a split batch owns; indices are
+        // in bounds and distinct within each constraint (our caller's contract), and a split
+        // batch is independent, so no other part touches these particles meanwhile.
+        let skip = unsafe {
+            let lambda = lambdas.slice(r.start, r.len());
+            let (ids, rest) = (&ids[r.clone()], &rest[r]);
+            if independent {
+                project_colour::<N, K>(xs, w, ids, rest, lambda, terms)
+            } else {
+                project_one_by_one::<N, K>(xs, w, ids, rest, lambda, terms)
             }
-        }
+        };
         skipped.fetch_add(skip, Ordering::Relaxed);
     };
     let parts = team.parts();
@@ -497,53 +478,6 @@ unsafe fn project_batches<const N: usize>(
         }
     }
     skipped.into_inner()
-}
-
-/// [`project_batches`] with the kernels of `K`: the one-constraint kernel ([`Lanes::one`]) as
-/// `step`, and the parts of independent batches four at a time where the processor can
-/// ([`project_colour`], with the same bits). `constraints` are the particles of each
-/// constraint and its rest value (or weights).
-///
-/// # Safety
-/// As [`project_batches`], and the two slices of `constraints` have the same length.
-#[allow(clippy::too_many_arguments)]
-unsafe fn project_batches_of<const N: usize, K: Lanes<N>>(
-    team: TeamRef<'_>,
-    x: &mut [DVec3],
-    w: &[f64],
-    (ids, rest): (&[[u32; N]], &[K::Rest]),
-    lambda: &mut [f64],
-    batches: &[(Range<usize>, bool)],
-    terms: PassTerms,
-) -> u64
-where
-    K::Rest: Sync,
-{
-    assert_eq!(rest.len(), ids.len());
-    let colour = |xs: SharedArray<DVec3>, lambdas: SharedArray<f64>, r: Range<usize>| {
-        // SAFETY: `project_batches` passes a range of `ids` (and so of `rest` and of the
-        // multipliers, one per constraint) that it owns, of a batch whose constraints share no
-        // particle, with indices in bounds and distinct within each constraint (its contract,
-        // met by our caller); no other part touches them meanwhile.
-        unsafe {
-            let lambda = lambdas.slice(r.start, r.len());
-            project_colour::<N, K>(xs, w, &ids[r.clone()], &rest[r], lambda, terms)
-        }
-    };
-    let (alpha, h) = (terms.alpha, terms.h);
-    // SAFETY: our caller's contract.
-    unsafe {
-        project_batches(
-            team,
-            x,
-            w,
-            ids,
-            lambda,
-            batches,
-            &|k, xs, ws, lambda| K::one(xs, ws, rest[k], alpha, lambda, h),
-            Some(&colour),
-        )
-    }
 }
 
 impl ConstraintGroup for BendGroup {
@@ -586,19 +520,17 @@ impl ConstraintGroup for BendGroup {
         // constraint.
         let mut skipped = unsafe {
             match self.quad_model {
-                QuadModel::Dihedral => project_batches_of::<4, Dihedral>(
+                QuadModel::Dihedral => project_batches::<4, Dihedral>(
                     team,
-                    x,
-                    w,
+                    (x, w),
                     (quads, &self.quad_rest),
                     hinges,
                     batches,
                     terms,
                 ),
-                QuadModel::Isometric => project_batches_of::<4, Isometric>(
+                QuadModel::Isometric => project_batches::<4, Isometric>(
                     team,
-                    x,
-                    w,
+                    (x, w),
                     (quads, &self.quad_weights),
                     hinges,
                     batches,
@@ -608,10 +540,9 @@ impl ConstraintGroup for BendGroup {
         };
         // SAFETY: as for the hinges.
         skipped += unsafe {
-            project_batches_of::<3, EdgeAngle>(
+            project_batches::<3, EdgeAngle>(
                 team,
-                x,
-                w,
+                (x, w),
                 (&self.triples, &self.triple_rest),
                 &mut self.triple_lambda,
                 &self.triple_batches,

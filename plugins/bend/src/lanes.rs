@@ -208,7 +208,7 @@ impl Lanes<4> for Isometric {
 /// Projects the constraints `ids[k]` in order, one at a time, with `K`'s one-constraint
 /// kernel ([`project_dihedral`], [`project_edge_angle`], [`project_isometric`]) and `rest[k]`,
 /// accumulating each one's multiplier in `lambda[k]`: the reference the four-lane kernel must
-/// match bit for bit, its fallback, and (as the groups' `step`) the kernel of a batch whose
+/// match bit for bit, its fallback, and the kernel of a batch whose
 /// constraints share particles. Returns how many were skipped.
 ///
 /// # Safety
