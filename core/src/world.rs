@@ -312,6 +312,14 @@ pub struct Group {
     pub residual_unit: String,
 }
 
+impl Group {
+    /// Whether the step calls this group's `stage`: it implements the stage and holds at
+    /// least one constraint (an empty group is never scheduled).
+    pub fn runs(&self, stage: Stages) -> bool {
+        self.len > 0 && self.stages.contains(stage)
+    }
+}
+
 /// The whole simulation.
 pub struct Simulation {
     /// Solver settings.
@@ -639,7 +647,7 @@ impl Simulation {
         drop(views);
         let calls: u64 = groups
             .iter()
-            .filter(|g| g.len > 0 && g.stages.contains(Stages::PROJECT))
+            .filter(|g| g.runs(Stages::PROJECT))
             .map(|g| u64::from(g.importance) * u64::from(settings.iterations))
             .sum();
         if calls > MAX_CALLS_PER_SUBSTEP {
@@ -688,13 +696,12 @@ impl Simulation {
 
     /// Recomputes the call sequence and stage lists (after changing settings or importances).
     pub fn reschedule(&mut self) {
-        let active = |g: &Group, s: Stages| g.len > 0 && g.stages.contains(s);
         let slots: Vec<Slot> = self
             .groups
             .iter()
             .map(|g| Slot {
                 order: g.order,
-                importance: if active(g, Stages::PROJECT) {
+                importance: if g.runs(Stages::PROJECT) {
                     g.importance.saturating_mul(self.settings.iterations)
                 } else {
                     0
@@ -704,7 +711,7 @@ impl Simulation {
         self.calls = schedule(&slots, self.settings.schedule);
         let pick = |s: Stages| -> Vec<usize> {
             (0..self.groups.len())
-                .filter(|&i| active(&self.groups[i], s))
+                .filter(|&i| self.groups[i].runs(s))
                 .collect()
         };
         self.force_groups = pick(Stages::FORCE);
