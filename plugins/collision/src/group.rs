@@ -182,6 +182,18 @@ pub struct CollisionGroup {
     /// from `x_ref`.
     separation: Vec<Separation>,
     separation_moved: Vec<f64>,
+    /// Whether each candidate's separation was taken ahead of its visit, over the team
+    /// ([`Self::take_separations_ahead`]): positions may have moved since, so a pass that
+    /// finds it no proof takes it again before testing the pair.
+    taken_ahead: Vec<bool>,
+    /// Set when every separation was just forgotten ([`Self::restart_passes`]): the next pass
+    /// takes them ahead, over the team.
+    separations_unknown: bool,
+    /// During the pass that took the separations ahead: the particles its contacts have moved
+    /// so far. A candidate none of whose particles moved still has exactly the separation
+    /// taken ahead.
+    touched: Vec<bool>,
+    ahead_exact: bool,
     /// The end positions the last broad phase saw, and how far each particle has moved from
     /// them since (m), kept current through a pass: a pair certainly apart at `x_ref` that has
     /// not moved enough to close the gap is skipped ([`Separation::certainly_apart`]).
@@ -378,6 +390,10 @@ impl CollisionGroup {
             cand_ids: Vec::new(),
             separation: Vec::new(),
             separation_moved: Vec::new(),
+            taken_ahead: Vec::new(),
+            separations_unknown: false,
+            touched: Vec::new(),
+            ahead_exact: false,
             x_ref: vec![DVec3::ZERO; n],
             moved: vec![0.0; n],
             contacts: Vec::new(),
@@ -1288,6 +1304,9 @@ impl CollisionGroup {
             .resize(self.candidates.len(), Separation::UNKNOWN);
         self.separation_moved.clear();
         self.separation_moved.resize(self.candidates.len(), 0.0);
+        self.taken_ahead.clear();
+        self.taken_ahead.resize(self.candidates.len(), false);
+        self.separations_unknown = true;
 
         // Existing contacts keep their slot.
         self.contact_of.clear();
@@ -1553,6 +1572,9 @@ impl CollisionGroup {
         for &i in ids {
             let i = i as usize;
             self.moved[i] = (x[i] - self.x_ref[i]).length();
+            if self.ahead_exact {
+                self.touched[i] = true;
+            }
         }
     }
 
@@ -1683,13 +1705,85 @@ impl CollisionGroup {
         }
     }
 
+    /// Takes, split over the team, the separation of every candidate with a prefilter whose
+    /// tight boxes overlap now (what the pass would take at the candidate's first visit), with
+    /// how far its particles have moved from `x_ref`. The pass's contacts move particles
+    /// before it reaches a candidate, so a separation taken ahead proves the pair apart only
+    /// with that motion added ([`Self::skip`], the certificate every later pass uses too);
+    /// where it proves nothing, the pass takes it again over the positions of the visit. The
+    /// verdicts, hence the contacts and positions, are those of a pass that takes each
+    /// separation at its visit: the same bits on any number of threads.
+    fn take_separations_ahead(&mut self, x0: &[DVec3], x: &[DVec3], team: TeamRef<'_>) {
+        let n = self.candidates.len();
+        let parts = team.parts();
+        let mut separation = std::mem::take(&mut self.separation);
+        let mut moved = std::mem::take(&mut self.separation_moved);
+        let mut ahead = std::mem::take(&mut self.taken_ahead);
+        {
+            let this = &*self;
+            let (sep, mov, ahd) = (
+                SharedArray::new(&mut separation),
+                SharedArray::new(&mut moved),
+                SharedArray::new(&mut ahead),
+            );
+            team.run(&|part| {
+                let r = span(part, parts, n);
+                // SAFETY: each part writes only its own range `r` of the three arrays, which
+                // are exclusively borrowed for this block and hold `n` elements each.
+                let (sep, mov, ahd) = unsafe {
+                    (
+                        sep.slice(r.start, r.len()),
+                        mov.slice(r.start, r.len()),
+                        ahd.slice(r.start, r.len()),
+                    )
+                };
+                for (i, k) in r.enumerate() {
+                    let cand = this.candidates[k];
+                    let prefilter = matches!(
+                        cand.kind,
+                        PairKind::VertexFace | PairKind::EdgeEdge | PairKind::VertexEdge
+                    );
+                    if !prefilter {
+                        continue;
+                    }
+                    let [a, b, c, d] = this.cand_ids[k];
+                    let tr = [
+                        track(x0, x, a),
+                        track(x0, x, b),
+                        track(x0, x, c),
+                        track(x0, x, d),
+                    ];
+                    if let Some(s) = pairs::separation(cand.kind, &tr) {
+                        sep[i] = s;
+                        mov[i] = this.candidate_moved(k);
+                        ahd[i] = true;
+                    }
+                }
+            });
+        }
+        self.separation = separation;
+        self.separation_moved = moved;
+        self.taken_ahead = ahead;
+    }
+
     /// One Gauss-Seidel pass: re-project the contacts found so far, then run the continuous
-    /// test on every candidate and project each new contact at once.
-    fn resolve_pass(&mut self, x0: &[DVec3], x: &mut [DVec3], inv_mass: &[f64]) {
+    /// test on every candidate and project each new contact at once. The pass after the
+    /// candidates were found takes their separations ahead over the team, where it has more
+    /// than one thread and enough candidates ([`Self::take_separations_ahead`]).
+    fn resolve_pass(&mut self, x0: &[DVec3], x: &mut [DVec3], inv_mass: &[f64], team: TeamRef<'_>) {
         for c in &mut self.contacts {
             c.project(x, inv_mass);
         }
         self.update_moved(x);
+        if std::mem::take(&mut self.separations_unknown)
+            && team.parts() > 1
+            && self.candidates.len() >= PARALLEL_MIN_QUERIES
+        {
+            self.take_separations_ahead(x0, x, team);
+            self.touched.clear();
+            self.touched.resize(self.x_ref.len(), false);
+            self.ahead_exact = true;
+        }
         for k in 0..self.candidates.len() {
             let cand = self.candidates[k];
             let d = self.reach[k];
@@ -1698,10 +1792,19 @@ impl CollisionGroup {
             }
             // A pair tested for the first time since the broad phase: its separation, kept for
             // the next passes, may settle it here (the verdict its test's prefilter would give)
-            // and otherwise serves the test.
+            // and otherwise serves the test. One taken ahead that proves nothing is taken
+            // again: the positions may have moved since.
             let mut known = None;
-            if self.separation[k].d0.is_nan() {
-                known = self.take_separation(k, x0, x);
+            let exact = self.ahead_exact
+                && self.taken_ahead[k]
+                && !self.cand_ids[k].iter().any(|&i| self.touched[i as usize]);
+            if exact || self.separation[k].d0.is_nan() || self.taken_ahead[k] {
+                self.taken_ahead[k] = false;
+                known = if exact {
+                    Some(self.separation[k])
+                } else {
+                    self.take_separation(k, x0, x)
+                };
                 if known.is_some_and(|s| s.certainly_apart(0.0, d)) {
                     continue;
                 }
@@ -1723,6 +1826,7 @@ impl CollisionGroup {
             }
             self.update_moved_of(&ids, x);
         }
+        self.ahead_exact = false;
     }
 
     /// Pushes every vertex out of the analytic colliders (exact signed-distance projection at
@@ -2105,7 +2209,7 @@ impl ConstraintGroup for CollisionGroup {
         self.check_state(p.x.len().min(p.x0.len()).min(p.inv_mass.len()))?;
         let (x0, x, w) = (p.x0, p.x, p.inv_mass);
         self.refresh_escaped(x0, x, w, team);
-        self.resolve_pass(x0, x, w);
+        self.resolve_pass(x0, x, w, team);
         if last {
             for c in &self.contacts {
                 c.friction(x, x0, w, self.mu_static, self.mu_dynamic);
