@@ -161,6 +161,37 @@ fn nan_writer_is_named_and_state_check_stops_the_run() {
     );
 }
 
+/// The finite check after a substep's last call runs in the velocity update's loop; after
+/// every other call, on its own. Both name the group that wrote the value, and what it was.
+#[test]
+fn a_nan_is_named_for_its_writer_whether_its_call_is_the_last_or_not() {
+    // Written by the last call of the substep: a velocity.
+    let mut sim = simulation(
+        &with_kind("write_nan_velocity", "{ at = 0.0 }"),
+        &[fixture("faulty")],
+    );
+    let err = sim.step_frame().unwrap_err();
+    let msg = err.to_string();
+    assert!(
+        msg.contains("my_write_nan_velocity")
+            && msg.contains("velocity")
+            && msg.contains("substep 0"),
+        "{msg}"
+    );
+    // Written by the first call, before `stretch` spreads it: named for the writer.
+    let first = with_kind("write_nan", "{ at = 0.0 }").replace(
+        "name = \"my_write_nan\"",
+        "name = \"my_write_nan\"\norder = -1",
+    );
+    let mut sim = simulation(&first, &[fixture("faulty")]);
+    assert_eq!(sim.groups[sim.calls[0].group as usize].name, "my_write_nan");
+    let msg = sim.step_frame().unwrap_err().to_string();
+    assert!(
+        msg.contains("my_write_nan") && msg.contains("position") && msg.contains("substep 0"),
+        "{msg}"
+    );
+}
+
 #[test]
 fn factory_rejecting_a_parameter_names_it() {
     let reg = registry(&[plugin_dir(), plugin_dir_with("picky", &[fixture("faulty")])]);
