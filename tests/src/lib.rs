@@ -58,6 +58,27 @@ pub fn host_bin() -> PathBuf {
     path
 }
 
+/// `nucleus COMMAND SCENE --quiet --no-default-plugins --plugins <staged> --out OUT`: the host
+/// binary on a scene with only the staged plugins ([`plugin_dir`]), quietly, writing to `out`.
+/// Add arguments or environment, then run it.
+pub fn host_command(command: &str, scene: &Path, out: &Path) -> std::process::Command {
+    let mut host = std::process::Command::new(host_bin());
+    host.arg(command)
+        .arg(scene)
+        .args(["--quiet", "--no-default-plugins", "--plugins"])
+        .arg(plugin_dir())
+        .arg("--out")
+        .arg(out);
+    host
+}
+
+/// The exit code and the last line of standard error of a finished host run.
+pub fn exit_and_last_error(output: &std::process::Output) -> (Option<i32>, String) {
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    let last = stderr.lines().last().unwrap_or_default().to_string();
+    (output.status.code(), last)
+}
+
 /// A fresh, empty directory under `target/<profile>/test-tmp/`.
 pub fn temp_dir(tag: &str) -> PathBuf {
     static COUNTER: AtomicU32 = AtomicU32::new(0);

@@ -5,7 +5,6 @@
 //! of calls a substep.
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use nucleus_tests::*;
 
@@ -33,20 +32,9 @@ fn run(tag: &str, text: &str) -> (Option<i32>, String, PathBuf, PathBuf) {
     let scene = dir.join("scene.toml");
     std::fs::write(&scene, text).unwrap();
     let out = dir.join("out");
-    let res = Command::new(host_bin())
-        .args([
-            "run",
-            scene.to_str().unwrap(),
-            "--quiet",
-            "--no-default-plugins",
-        ])
-        .args(["--plugins", plugin_dir().to_str().unwrap()])
-        .args(["--out", out.to_str().unwrap()])
-        .output()
-        .unwrap();
-    let stderr = String::from_utf8_lossy(&res.stderr).to_string();
-    let last = stderr.lines().last().unwrap_or_default().to_string();
-    (res.status.code(), last, scene, out)
+    let res = host_command("run", &scene, &out).output().unwrap();
+    let (code, last) = exit_and_last_error(&res);
+    (code, last, scene, out)
 }
 
 fn assert_error_at(tag: &str, text: &str, line: usize, needle: &str) {

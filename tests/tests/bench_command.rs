@@ -6,7 +6,7 @@
 
 use std::collections::BTreeMap;
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 
 use nucleus_tests::*;
 
@@ -18,14 +18,8 @@ fn bench(tag: &str, args: &[&str]) -> (Output, std::path::PathBuf) {
     let scene = dir.join("drape.toml");
     std::fs::write(&scene, drape_text(12, 10, 2, 1, STRETCH)).unwrap();
     let out = dir.join("out");
-    let output = Command::new(host_bin())
-        .arg("bench")
-        .arg(&scene)
+    let output = host_command("bench", &scene, &out)
         .args(args)
-        .args(["--quiet", "--no-default-plugins", "--plugins"])
-        .arg(plugin_dir())
-        .arg("--out")
-        .arg(&out)
         .output()
         .unwrap();
     (output, out)

@@ -13,11 +13,8 @@ fn run_once(tag: &str, scene: &str, threads: &str) -> std::path::PathBuf {
 
 fn run_with(tag: &str, scene: &str, threads: &str, extra: &[&str]) -> std::path::PathBuf {
     let out = temp_dir(tag);
-    let status = Command::new(host_bin())
-        .args(["run", scene, "--quiet", "--no-default-plugins"])
+    let status = host_command("run", std::path::Path::new(scene), &out)
         .args(extra)
-        .args(["--plugins", plugin_dir().to_str().unwrap()])
-        .args(["--out", out.to_str().unwrap()])
         .env("RAYON_NUM_THREADS", threads)
         .status()
         .unwrap();

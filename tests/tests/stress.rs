@@ -32,7 +32,6 @@
 //! --release -p nucleus-tests --test stress -- --include-ignored --nocapture`. Every case prints
 //! one `STRESS | case | passed | figures` line; docs/stress.md holds the table.
 
-use std::process::Command;
 use std::time::Instant;
 
 use glam::DVec3;
@@ -1662,21 +1661,12 @@ fn host_run(
     let path = dir.join("scene.toml");
     std::fs::write(&path, scene).unwrap();
     let out = dir.join("out");
-    let res = Command::new(host_bin())
-        .args([
-            "run",
-            path.to_str().unwrap(),
-            "--quiet",
-            "--no-default-plugins",
-        ])
-        .args(["--plugins", plugin_dir().to_str().unwrap()])
-        .args(["--out", out.to_str().unwrap()])
+    let res = host_command("run", &path, &out)
         .args(args)
         .output()
         .unwrap();
-    let stderr = String::from_utf8_lossy(&res.stderr).to_string();
-    let last = stderr.lines().last().unwrap_or_default().to_string();
-    (res.status.code(), last, path, out)
+    let (code, last) = exit_and_last_error(&res);
+    (code, last, path, out)
 }
 
 /// Asserts exit code 2, an error starting with `scene:line:` (just `error:` when `line` is 0)
