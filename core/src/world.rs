@@ -792,6 +792,7 @@ impl Simulation {
                 0,
                 1,
                 team,
+                true,
             )?;
         }
         // The finite check after the last call is made in the velocity update's loop, which
@@ -803,8 +804,8 @@ impl Simulation {
             let passes = self.groups[g]
                 .importance
                 .saturating_mul(self.settings.iterations);
-            let check = self.settings.check_finite && k + 1 < self.calls.len();
-            self.call_group_checking(g, Stage::Project, substep, call.pass, passes, team, check)?;
+            let check = k + 1 < self.calls.len();
+            self.call_group(g, Stage::Project, substep, call.pass, passes, team, check)?;
         }
         if checked_last {
             let g = self.calls[self.calls.len() - 1].group as usize;
@@ -814,7 +815,15 @@ impl Simulation {
             self.update_velocities(h, team);
         }
         for k in 0..self.end_groups.len() {
-            self.call_group(self.end_groups[k], Stage::EndSubstep, substep, 0, 1, team)?;
+            self.call_group(
+                self.end_groups[k],
+                Stage::EndSubstep,
+                substep,
+                0,
+                1,
+                team,
+                true,
+            )?;
         }
         self.damp(h, team);
         self.time = t1;
@@ -850,7 +859,15 @@ impl Simulation {
         }
         self.apply_gravity(h, team);
         for k in 0..self.force_groups.len() {
-            self.call_group(self.force_groups[k], Stage::Force, substep, 0, 1, team)?;
+            self.call_group(
+                self.force_groups[k],
+                Stage::Force,
+                substep,
+                0,
+                1,
+                team,
+                true,
+            )?;
         }
         self.predict(h, t1, None, team);
         Ok(())
@@ -887,7 +904,7 @@ impl Simulation {
                 .saturating_mul(self.settings.iterations),
             _ => 1,
         };
-        self.call_group(group, stage, substep, pass, passes, team)
+        self.call_group(group, stage, substep, pass, passes, team, true)
     }
 
     /// Each object's pin transform at time `t`, for the moving pins' targets (see
@@ -1007,23 +1024,9 @@ impl Simulation {
     }
 
     /// Calls group `g`'s `stage`, then checks that every position and velocity is finite
-    /// (unless the scene turned the check off).
-    fn call_group(
-        &mut self,
-        g: usize,
-        stage: Stage,
-        substep: u32,
-        pass: u32,
-        passes: u32,
-        team: TeamRef<'_>,
-    ) -> Result<(), StepError> {
-        let check = self.settings.check_finite;
-        self.call_group_checking(g, stage, substep, pass, passes, team, check)
-    }
-
-    /// [`Self::call_group`], with the finite check only if `check`.
+    /// (unless the scene turned the check off, or `check` is false: the caller checks).
     #[allow(clippy::too_many_arguments)]
-    fn call_group_checking(
+    fn call_group(
         &mut self,
         g: usize,
         stage: Stage,
@@ -1071,7 +1074,7 @@ impl Simulation {
                 error: Box::new(error),
             });
         }
-        if check {
+        if check && self.settings.check_finite {
             let found = NonFinite::default();
             // `x` and `v` have one length: every particle array does.
             let (x, v) = (&self.particles.x, &self.particles.v);

@@ -1602,17 +1602,23 @@ impl CollisionGroup {
         !s.d0.is_nan() && s.certainly_apart(self.separation_moved[k] + self.candidate_moved(k), d)
     }
 
-    /// Takes and keeps candidate `k`'s separation over `[x0, x]` (for the kinds with a
-    /// prefilter; `None` for the others), the first time a pass tests it.
-    fn take_separation(&mut self, k: usize, x0: &[DVec3], x: &[DVec3]) -> Option<Separation> {
+    /// The tracks of candidate `k`'s particles over `[x0, x]`, written out (an array `map`
+    /// stayed an out-of-line call).
+    #[inline]
+    fn candidate_tracks(&self, k: usize, x0: &[DVec3], x: &[DVec3]) -> [Track; 4] {
         let [a, b, c, d] = self.cand_ids[k];
-        let tr = [
+        [
             track(x0, x, a),
             track(x0, x, b),
             track(x0, x, c),
             track(x0, x, d),
-        ];
-        let s = pairs::separation(self.candidates[k].kind, &tr)?;
+        ]
+    }
+
+    /// Takes and keeps candidate `k`'s separation over `[x0, x]` (for the kinds with a
+    /// prefilter; `None` for the others), the first time a pass tests it.
+    fn take_separation(&mut self, k: usize, x0: &[DVec3], x: &[DVec3]) -> Option<Separation> {
+        let s = pairs::separation(self.candidates[k].kind, &self.candidate_tracks(k, x0, x))?;
         self.separation[k] = s;
         self.separation_moved[k] = self.candidate_moved(k);
         Some(s)
@@ -1804,13 +1810,7 @@ impl CollisionGroup {
                     if !prefilter || !sep[i].d0.is_nan() {
                         continue;
                     }
-                    let [a, b, c, d] = this.cand_ids[k];
-                    let tr = [
-                        track(x0, x, a),
-                        track(x0, x, b),
-                        track(x0, x, c),
-                        track(x0, x, d),
-                    ];
+                    let tr = this.candidate_tracks(k, x0, x);
                     if let Some(s) = pairs::separation(cand.kind, &tr) {
                         sep[i] = s;
                         mov[i] = this.candidate_moved(k);
