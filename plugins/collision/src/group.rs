@@ -1604,7 +1604,7 @@ impl CollisionGroup {
 
     /// The tracks of candidate `k`'s particles over `[x0, x]`, written out (an array `map`
     /// stayed an out-of-line call).
-    #[inline]
+    #[inline(always)]
     fn candidate_tracks(&self, k: usize, x0: &[DVec3], x: &[DVec3]) -> [Track; 4] {
         let [a, b, c, d] = self.cand_ids[k];
         [
