@@ -186,8 +186,9 @@ pub struct CollisionGroup {
     /// ([`Self::take_separations_ahead`]): positions may have moved since, so a pass that
     /// finds it no proof takes it again before testing the pair.
     taken_ahead: Vec<bool>,
-    /// Set when every separation was just forgotten ([`Self::restart_passes`]): the next pass
-    /// takes them ahead, over the team.
+    /// Set when the candidates were found again or a substep started
+    /// ([`Self::restart_passes`]): the next pass takes the separations they lack ahead, over
+    /// the team.
     separations_unknown: bool,
     /// During the pass that took the separations ahead: the particles its contacts have moved
     /// so far. A candidate none of whose particles moved still has exactly the separation
@@ -1771,9 +1772,9 @@ impl CollisionGroup {
 
     /// Takes, split over the team, the separation of every candidate with a prefilter that has
     /// none (what the pass would take at the candidate's first visit; a refresh within the
-    /// substep carries the others over), with how far its particles have moved from `x_ref`. The pass's contacts move particles
-    /// before it reaches a candidate, so a separation taken ahead proves the pair apart only
-    /// with that motion added ([`Self::skip`], the certificate every later pass uses too);
+    /// substep carries the others over), with how far its particles have moved from `x_ref`.
+    /// The pass's contacts move particles before it reaches a candidate, so a separation taken
+    /// ahead proves the pair apart only with that motion added ([`Self::skip`], the certificate every later pass uses too);
     /// where it proves nothing, the pass takes it again over the positions of the visit. The
     /// verdicts, hence the contacts and positions, are those of a pass that takes each
     /// separation at its visit: the same bits on any number of threads.
