@@ -795,9 +795,6 @@ impl Simulation {
                 true,
             )?;
         }
-        // The finite check after the last call is made in the velocity update's loop, which
-        // reads the same positions (and the velocities it replaces) anyway.
-        let checked_last = self.settings.check_finite && !self.calls.is_empty();
         for k in 0..self.calls.len() {
             let call = self.calls[k];
             let g = call.group as usize;
@@ -807,12 +804,12 @@ impl Simulation {
             let check = k + 1 < self.calls.len();
             self.call_group(g, Stage::Project, substep, call.pass, passes, team, check)?;
         }
-        if checked_last {
-            let g = self.calls[self.calls.len() - 1].group as usize;
-            let found = self.update_velocities_checked(h, team);
+        // The finite check after the last call is made in the velocity update's loop, which
+        // reads the same positions (and the velocities it replaces) anyway.
+        let last = self.calls.last().map(|call| call.group as usize);
+        let found = self.update_velocities(h, team, self.settings.check_finite && last.is_some());
+        if let Some(g) = last {
             self.non_finite_error(g, Stage::Project, substep, found)?;
-        } else {
-            self.update_velocities(h, team);
         }
         for k in 0..self.end_groups.len() {
             self.call_group(
@@ -974,11 +971,12 @@ impl Simulation {
         });
     }
 
-    /// [`Self::update_velocities`], checking first, block by block, that the positions and
-    /// the velocities it replaces are finite: the check the last group call would make
-    /// ([`NonFinite`]), in the same pass over the positions. On a non-finite value the
-    /// velocities are left as they are from that block on, and the step stops with the error.
-    fn update_velocities_checked(&mut self, h: f64, team: TeamRef<'_>) -> NonFinite {
+    /// `v = (x − x0) / h` for every particle, block by block; with `check`, each block's
+    /// positions and the velocities it replaces are first checked to be finite: the check the
+    /// schedule's last call would make ([`NonFinite`]), in the same pass over the positions.
+    /// On a non-finite value the velocities are left as they are from that block on, and the
+    /// caller stops the step with the error.
+    fn update_velocities(&mut self, h: f64, team: TeamRef<'_>, check: bool) -> NonFinite {
         /// Particles checked and updated at a time: the block's positions, start positions and
         /// velocities (72 KiB) stay in the core's cache between the check and the update.
         const BLOCK: usize = 1024;
@@ -993,22 +991,13 @@ impl Simulation {
                 .zip(x.chunks(BLOCK))
                 .zip(x0.chunks(BLOCK))
             {
-                if !found.check(x, v) {
+                if check && !found.check(x, v) {
                     return;
                 }
                 velocity_range(v, x, x0, inv_h);
             }
         });
         found
-    }
-
-    fn update_velocities(&mut self, h: f64, team: TeamRef<'_>) {
-        let p = &mut self.particles;
-        let inv_h = 1.0 / h;
-        let (x, x0) = (&p.x, &p.x0);
-        for_ranges_mut(team, &mut p.v, &|r, v| {
-            velocity_range(v, &x[r.clone()], &x0[r], inv_h)
-        });
     }
 
     fn damp(&mut self, h: f64, team: TeamRef<'_>) {
