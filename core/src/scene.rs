@@ -433,55 +433,206 @@ pub struct Scene {
     /// Where it came from.
     pub path: PathBuf,
     source: String,
+    /// With `--set` overrides: where each line of `source` came from.
+    origin: Option<Origin>,
 }
 
-/// Sets `a.b.0.c = value` in a TOML document (numbers index arrays).
-fn apply_override(doc: &mut toml::Table, assignment: &str) -> Result<(), String> {
+/// Where the lines of a scene text with `--set` overrides came from: the overrides are made in
+/// place ([`apply_override`]), so every line of the file is kept verbatim except those holding
+/// an overridden value, and inserted keys add lines. `lines[k]` is the file's line (1-based)
+/// that line `k + 1` of the text is, or `None` for a line an override wrote.
+#[derive(Clone, Debug)]
+struct Origin {
+    overrides: Vec<String>,
+    lines: Vec<Option<usize>>,
+}
+
+/// Where an offset of a scene's text is, for error messages.
+#[derive(Clone, Debug, PartialEq, Eq)]
+enum Place {
+    /// 1-based line and column in the file.
+    At(usize, usize),
+    /// On a line written by an override (the `--set` argument, or all of them when the line
+    /// cannot be told apart).
+    Override(String),
+}
+
+impl Origin {
+    /// Aligns the lines of `text` (the file with the overrides made in place) with those of
+    /// `file`: equal lines in order are the file's (a longest common subsequence, or a greedy
+    /// match for very long texts), the rest the overrides'.
+    fn new(file: &str, text: &str, overrides: &[String]) -> Origin {
+        let a: Vec<&str> = text.lines().collect();
+        let b: Vec<&str> = file.lines().collect();
+        let mut lines = vec![None; a.len()];
+        if a.len().saturating_mul(b.len()) <= 4_000_000 {
+            // lcs[i][j]: the longest common subsequence of a[i..] and b[j..].
+            let w = b.len() + 1;
+            let mut lcs = vec![0u32; (a.len() + 1) * w];
+            for i in (0..a.len()).rev() {
+                for j in (0..b.len()).rev() {
+                    lcs[i * w + j] = if a[i] == b[j] {
+                        lcs[(i + 1) * w + j + 1] + 1
+                    } else {
+                        lcs[(i + 1) * w + j].max(lcs[i * w + j + 1])
+                    };
+                }
+            }
+            let (mut i, mut j) = (0, 0);
+            while i < a.len() && j < b.len() {
+                if a[i] == b[j] {
+                    lines[i] = Some(j + 1);
+                    i += 1;
+                    j += 1;
+                } else if lcs[(i + 1) * w + j] >= lcs[i * w + j + 1] {
+                    i += 1;
+                } else {
+                    j += 1;
+                }
+            }
+        } else {
+            let mut j = 0;
+            for (i, line) in a.iter().enumerate() {
+                if let Some(k) = b[j..].iter().position(|l| l == line) {
+                    j += k;
+                    lines[i] = Some(j + 1);
+                    j += 1;
+                }
+            }
+        }
+        Origin {
+            overrides: overrides.to_vec(),
+            lines,
+        }
+    }
+
+    /// Where `offset` of `text` is.
+    fn place(&self, text: &str, offset: usize) -> Place {
+        let (line, col) = line_col(text, offset);
+        match self.lines.get(line - 1) {
+            Some(Some(file_line)) => Place::At(*file_line, col),
+            _ => {
+                // The override whose key names the line's key (`key = …`), else all of them.
+                let line_text = text.lines().nth(line - 1).unwrap_or("");
+                let key = line_text
+                    .split('=')
+                    .next()
+                    .unwrap_or("")
+                    .trim()
+                    .trim_matches(|c| c == '"' || c == '\'' || c == '[' || c == ']');
+                let named = self.overrides.iter().rev().find(|o| {
+                    let path = o.split('=').next().unwrap_or("");
+                    !key.is_empty() && path.trim().split('.').any(|p| p == key)
+                });
+                Place::Override(named.cloned().unwrap_or_else(|| self.overrides.join(" ")))
+            }
+        }
+    }
+}
+
+/// A place in a document being overridden: a key's item, a table of an array of tables, or
+/// a value inside an inline table or an array.
+enum Cursor<'d> {
+    Item(&'d mut toml_edit::Item),
+    Table(&'d mut toml_edit::Table),
+    Value(&'d mut toml_edit::Value),
+}
+
+/// `part` as an index into a list of `n` entries.
+fn index(part: &str, n: usize) -> Result<usize, String> {
+    let i: usize = part
+        .parse()
+        .map_err(|_| format!("`{part}` is not an index"))?;
+    if i < n {
+        Ok(i)
+    } else {
+        Err(format!("index {i} out of range ({n} entries)"))
+    }
+}
+
+/// Sets `a.b.0.c = value` in a TOML document (numbers index arrays and arrays of tables;
+/// inline tables are entered as tables; missing tables are created) **in place**: the other
+/// lines keep their text, and a replaced value its line, so that error locations can be
+/// given in the file ([`Origin`]).
+fn apply_override(doc: &mut toml_edit::DocumentMut, assignment: &str) -> Result<(), String> {
+    use toml_edit::{Item, Value};
     let (key, value) = assignment
         .split_once('=')
         .ok_or_else(|| "expected KEY=VALUE".to_string())?;
-    let value: toml::Value = toml::from_str::<toml::Table>(&format!("v = {}", value.trim()))
-        .map_err(|e| format!("bad value: {}", e.message()))?
-        .remove("v")
+    let parsed: toml_edit::DocumentMut =
+        format!("v = {}", value.trim())
+            .parse()
+            .map_err(|e: toml_edit::TomlError| {
+                format!(
+                    "bad value: {}",
+                    e.message().split_whitespace().collect::<Vec<_>>().join(" ")
+                )
+            })?;
+    let mut value = parsed
+        .get("v")
+        .and_then(Item::as_value)
+        .cloned()
         .ok_or_else(|| "bad value".to_string())?;
     let parts: Vec<&str> = key.trim().split('.').collect();
-    let (last, path) = parts.split_last().ok_or_else(|| "empty key".to_string())?;
-    let mut cur: &mut toml::Value = doc
-        .entry(path.first().copied().unwrap_or(last).to_string())
-        .or_insert_with(|| toml::Value::Table(toml::Table::new()));
-    if path.is_empty() {
-        *cur = value;
-        return Ok(());
+    if parts.iter().any(|p| p.trim().is_empty()) {
+        return Err("empty key".to_string());
     }
-    for part in &path[1..] {
+    let (last, path) = parts.split_last().ok_or_else(|| "empty key".to_string())?;
+    let mut cur = Cursor::Table(doc.as_table_mut());
+    for part in path {
         cur = match cur {
-            toml::Value::Table(t) => t
-                .entry(part.to_string())
-                .or_insert_with(|| toml::Value::Table(toml::Table::new())),
-            toml::Value::Array(a) => {
-                let i: usize = part
-                    .parse()
-                    .map_err(|_| format!("`{part}` is not an index"))?;
-                let n = a.len();
-                a.get_mut(i)
-                    .ok_or_else(|| format!("index {i} out of range ({n} entries)"))?
+            Cursor::Table(t) | Cursor::Item(Item::Table(t)) => {
+                Cursor::Item(t.entry(part).or_insert_with(toml_edit::table))
             }
-            _ => return Err(format!("`{part}`: not a table")),
+            Cursor::Item(Item::ArrayOfTables(a)) => {
+                let i = index(part, a.len())?;
+                Cursor::Table(a.get_mut(i).expect("an index in range"))
+            }
+            Cursor::Item(Item::Value(v)) | Cursor::Value(v) => match v {
+                Value::InlineTable(t) => Cursor::Value(
+                    t.entry(*part)
+                        .or_insert_with(|| Value::InlineTable(Default::default())),
+                ),
+                Value::Array(a) => {
+                    let i = index(part, a.len())?;
+                    Cursor::Value(a.get_mut(i).expect("an index in range"))
+                }
+                _ => return Err(format!("`{part}`: not a table")),
+            },
+            Cursor::Item(Item::None) => return Err(format!("`{part}`: not a table")),
         };
     }
+    // A replaced value keeps the spaces around it.
+    let mut replace = |old: &mut Value| {
+        *value.decor_mut() = old.decor().clone();
+        *old = value.clone();
+    };
     match cur {
-        toml::Value::Table(t) => {
-            t.insert(last.to_string(), value);
+        Cursor::Table(t) | Cursor::Item(Item::Table(t)) => match t.get_mut(last) {
+            Some(Item::Value(old)) => replace(old),
+            Some(old) => *old = Item::Value(value),
+            None => {
+                t.insert(last, Item::Value(value));
+            }
+        },
+        Cursor::Item(Item::Value(v)) | Cursor::Value(v) => match v {
+            Value::InlineTable(t) => match t.get_mut(last) {
+                Some(old) => replace(old),
+                None => {
+                    t.insert(*last, value);
+                }
+            },
+            Value::Array(a) => {
+                let i = index(last, a.len())?;
+                replace(a.get_mut(i).expect("an index in range"));
+            }
+            _ => return Err(format!("`{last}`: parent is not a table")),
+        },
+        Cursor::Item(Item::ArrayOfTables(a)) => {
+            let i = index(last, a.len())?;
+            return Err(format!("`{last}`: entry {i} is a table; set its keys"));
         }
-        toml::Value::Array(a) => {
-            let i: usize = last
-                .parse()
-                .map_err(|_| format!("`{last}` is not an index"))?;
-            let n = a.len();
-            *a.get_mut(i)
-                .ok_or_else(|| format!("index {i} out of range ({n} entries)"))? = value;
-        }
-        _ => return Err(format!("`{last}`: parent is not a table")),
+        Cursor::Item(Item::None) => return Err(format!("`{last}`: parent is not a table")),
     }
     Ok(())
 }
@@ -506,8 +657,9 @@ impl Scene {
     }
 
     /// Reads a scene file and applies `key=value` overrides (`solver.substeps=4`,
-    /// `objects.0.grid.resolution=[128,128]`; values are TOML) before parsing. Error
-    /// locations then refer to the overridden text.
+    /// `objects.0.grid.resolution=[128,128]`; values are TOML) before parsing. The overrides
+    /// are made in the file's text, so an error is located in the file (`path:line:col`), or
+    /// named by the `--set` argument when it is in a value an override wrote.
     pub fn load_with_overrides(path: &Path, overrides: &[String]) -> Result<Scene, SceneError> {
         if overrides.is_empty() {
             return Self::load(path);
@@ -516,15 +668,16 @@ impl Scene {
             path: path.to_path_buf(),
             source,
         })?;
-        let mut doc: toml::Table = toml::from_str(&source).map_err(|e| {
-            let (line, col) = e.span().map_or((1, 1), |s| line_col(&source, s.start));
-            SceneError::Parse {
-                path: path.to_path_buf(),
-                line,
-                col,
-                message: e.message().split_whitespace().collect::<Vec<_>>().join(" "),
-            }
-        })?;
+        let mut doc: toml_edit::DocumentMut =
+            source.parse().map_err(|e: toml_edit::TomlError| {
+                let (line, col) = e.span().map_or((1, 1), |s| line_col(&source, s.start));
+                SceneError::Parse {
+                    path: path.to_path_buf(),
+                    line,
+                    col,
+                    message: e.message().split_whitespace().collect::<Vec<_>>().join(" "),
+                }
+            })?;
         for o in overrides {
             apply_override(&mut doc, o).map_err(|message| SceneError::Invalid {
                 path: path.to_path_buf(),
@@ -533,33 +686,69 @@ impl Scene {
                 message: format!("--set {o}: {message}"),
             })?;
         }
-        let text = toml::to_string(&doc).map_err(|e| SceneError::Invalid {
-            path: path.to_path_buf(),
-            line: 0,
-            col: 0,
-            message: e.to_string(),
-        })?;
-        Self::parse(&text, path)
+        let text = doc.to_string();
+        let origin = Origin::new(&source, &text, overrides);
+        Self::parse_from(&text, path, Some(origin))
     }
 
     /// Parses scene text; `path` is used for error messages and relative mesh paths.
     pub fn parse(source: &str, path: &Path) -> Result<Scene, SceneError> {
+        Self::parse_from(source, path, None)
+    }
+
+    fn parse_from(source: &str, path: &Path, origin: Option<Origin>) -> Result<Scene, SceneError> {
         let file: SceneFile = toml::from_str(source).map_err(|e| {
-            let (line, col) = e.span().map_or((1, 1), |s| line_col(source, s.start));
-            SceneError::Parse {
-                path: path.to_path_buf(),
-                line,
-                col,
-                message: e.message().split_whitespace().collect::<Vec<_>>().join(" "),
+            let message = e.message().split_whitespace().collect::<Vec<_>>().join(" ");
+            let offset = e.span().map_or(0, |s| s.start);
+            match origin.as_ref().map(|o| o.place(source, offset)) {
+                Some(Place::Override(o)) => SceneError::Invalid {
+                    path: path.to_path_buf(),
+                    line: 0,
+                    col: 0,
+                    message: format!("--set {o}: {message}"),
+                },
+                place => {
+                    let (line, col) = match place {
+                        Some(Place::At(line, col)) => (line, col),
+                        _ => e.span().map_or((1, 1), |s| line_col(source, s.start)),
+                    };
+                    SceneError::Parse {
+                        path: path.to_path_buf(),
+                        line,
+                        col,
+                        message,
+                    }
+                }
             }
         })?;
         let scene = Scene {
             file,
             path: path.to_path_buf(),
             source: source.to_string(),
+            origin,
         };
         scene.validate()?;
         Ok(scene)
+    }
+
+    /// Where byte `offset` of the scene text is.
+    fn place(&self, offset: usize) -> Place {
+        match &self.origin {
+            Some(origin) => origin.place(&self.source, offset),
+            None => {
+                let (line, col) = line_col(&self.source, offset);
+                Place::At(line, col)
+            }
+        }
+    }
+
+    /// `path:line:col` of byte `offset` of the scene text in the file, or `path (--set …)`
+    /// when an override wrote it: for messages about a value of the scene.
+    pub fn location(&self, offset: usize) -> String {
+        match self.place(offset) {
+            Place::At(line, col) => format!("{}:{line}:{col}", self.path.display()),
+            Place::Override(o) => format!("{} (--set {o})", self.path.display()),
+        }
     }
 
     /// The scene text.
@@ -567,14 +756,17 @@ impl Scene {
         &self.source
     }
 
-    /// An error at a span of the source.
+    /// An error at a span of the source (in the file, or naming the `--set` that wrote it).
     pub fn invalid(&self, span: Range<usize>, message: impl Into<String>) -> SceneError {
-        let (line, col) = line_col(&self.source, span.start);
+        let (line, col, message) = match self.place(span.start) {
+            Place::At(line, col) => (line, col, message.into()),
+            Place::Override(o) => (0, 0, format!("--set {o}: {}", message.into())),
+        };
         SceneError::Invalid {
             path: self.path.clone(),
             line,
             col,
-            message: message.into(),
+            message,
         }
     }
 

@@ -600,10 +600,7 @@ impl Simulation {
         let mut kind_counts: std::collections::BTreeMap<String, u32> = Default::default();
         for c in &scene.file.constraints {
             let kind = c.kind.get_ref();
-            let location = {
-                let (line, col) = crate::scene::line_col(scene_source(scene), c.kind.span().start);
-                format!("{}:{line}:{col}", scene.path.display())
-            };
+            let location = scene.location(c.kind.span().start);
             let (plugin, info) = registry.find(kind).map_err(|error| BuildError::Plugin {
                 location: location.clone(),
                 error: Box::new(error),
@@ -1235,10 +1232,6 @@ impl Simulation {
     pub fn object(&self, name: &str) -> Option<&ObjectData> {
         self.objects.iter().find(|o| o.name == name)
     }
-}
-
-fn scene_source(scene: &Scene) -> &str {
-    scene.source()
 }
 
 #[cfg(test)]

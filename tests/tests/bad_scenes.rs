@@ -2,7 +2,8 @@
 //! claims to be complete: malformed TOML, an unknown field, an unknown kind, a missing OBJ
 //! file, a pin index out of range, NaN or negative mass, zero substeps, a substep length that
 //! under- or overflows, a substep so long that gravity overflows in one, a schedule of billions
-//! of calls a substep.
+//! of calls a substep. With `--set` overrides an error in the file keeps its location in the
+//! file, and one in an overridden value names the `--set` argument.
 
 use std::path::{Path, PathBuf};
 
@@ -51,6 +52,21 @@ fn assert_error_at(tag: &str, text: &str, line: usize, needle: &str) {
         !out.exists(),
         "{tag}: a scene error must stop before any output is written"
     );
+}
+
+/// Runs `nucleus run` on `text` with the `--set` arguments `sets`; returns (exit code, last
+/// stderr line, scene path, output directory).
+fn run_with_sets(tag: &str, text: &str, sets: &[&str]) -> (Option<i32>, String, PathBuf, PathBuf) {
+    let dir = temp_dir(tag);
+    let scene = dir.join("scene.toml");
+    std::fs::write(&scene, text).unwrap();
+    let out = dir.join("out");
+    let mut host = host_command("run", &scene, &out);
+    for s in sets {
+        host.args(["--set", s]);
+    }
+    let (code, last) = exit_and_last_error(&host.output().unwrap());
+    (code, last, scene, out)
 }
 
 fn replace(from: &str, to: &str) -> String {
@@ -352,4 +368,124 @@ fn obj_mesh_loads_relative_to_the_scene() {
         sim.groups[0].len, 5,
         "two triangles share one edge: 5 edges"
     );
+}
+
+/// An error in a value a `--set` wrote names that argument, not a line of the file: the line
+/// would be in a text the user never sees (before, `--set` gave locations in the re-serialised
+/// scene, such as line 2 of a file whose line 2 is a comment).
+#[test]
+fn an_error_in_an_overridden_value_names_the_set_argument() {
+    for (set, needle) in [
+        (
+            "constraints.0.params = { compliance = -1.0 }",
+            "parameter `compliance`",
+        ),
+        ("solver.substeps=0", "substeps must be at least 1"),
+        ("constraints.0.importance=-1", "invalid value"),
+        ("objects.0.pins=[0, 99]", "pin index 99 is out of range"),
+        (
+            "constraints.0.kind=\"strech\"",
+            "no plugin provides kind `strech`",
+        ),
+        ("constraints.3.importance=2", "index 3 out of range"),
+    ] {
+        let (code, msg, scene, out) = run_with_sets("set-error", GOOD, &[set]);
+        assert_eq!(code, Some(2), "{set}: exit code; stderr: {msg}");
+        let named = [
+            format!("error: {}: --set {set}: ", scene.display()),
+            format!("error: {} (--set {set}): ", scene.display()),
+        ];
+        assert!(
+            named.iter().any(|n| msg.starts_with(n.as_str())),
+            "{set}: expected the argument named in: {msg}"
+        );
+        assert!(msg.contains(needle), "{set}: expected `{needle}` in: {msg}");
+        assert!(!out.exists(), "{set}: no output may be written");
+    }
+}
+
+/// An error in the file keeps its line and column with overrides that replace values and
+/// insert keys above it (the overrides are made in the file's text, not by re-writing it).
+#[test]
+fn an_error_in_the_file_keeps_its_location_under_overrides() {
+    let text = format!(
+        "{GOOD}\n[[constraints]]\nkind = \"stretch\"\nobjects = [\"cloth\"]\nparams = {{ bogus = 1 }}\n"
+    );
+    let line = text.lines().position(|l| l.contains("bogus")).unwrap() + 1;
+    for sets in [
+        &[][..],
+        &["solver.substeps=3"][..],
+        &[
+            "constraints.0.importance=2",
+            "solver.iterations=2",
+            "objects.0.mass=2.0",
+        ][..],
+    ] {
+        let (code, msg, scene, _) = run_with_sets("file-error-set", &text, sets);
+        assert_eq!(code, Some(2), "{sets:?}: exit code; stderr: {msg}");
+        let loc = format!("error: {}:{line}:", scene.display());
+        assert!(msg.starts_with(&loc), "{sets:?}: expected {loc} in: {msg}");
+        assert!(msg.contains("parameter `bogus`"), "{sets:?}: {msg}");
+    }
+}
+
+/// Overrides reach keys of inline tables, entries of arrays and of arrays of tables, and
+/// insert missing keys; the scene runs with what they set.
+#[test]
+fn overrides_set_inline_table_keys_array_entries_and_new_keys() {
+    let text = replace(
+        "kind = \"stretch\"",
+        "kind = \"stretch\"\nparams = { compliance = 0.0 }",
+    );
+    // A key inside the inline table is reached (and its bad value named).
+    let (code, msg, _, _) = run_with_sets(
+        "set-inline",
+        &text,
+        &["constraints.0.params.compliance=-1.0"],
+    );
+    assert_eq!(code, Some(2), "stderr: {msg}");
+    assert!(
+        msg.contains("--set constraints.0.params.compliance=-1.0") && msg.contains("`compliance`"),
+        "{msg}"
+    );
+    let (code, msg, _, out) = run_with_sets(
+        "set-ok",
+        &text,
+        &[
+            "constraints.0.params.compliance=1e-6",
+            "objects.0.pins.1=2",
+            "constraints.0.importance=2",
+            "solver.frames=2",
+        ],
+    );
+    assert_eq!(code, Some(0), "stderr: {msg}");
+    let run = std::fs::read_to_string(out.join("run.json")).unwrap();
+    assert!(
+        run.contains("\"frames\":2"),
+        "the file's 3 frames were not overridden: {run}"
+    );
+    // Pins 0 and 2 (the override) hold their rest positions on the 4 x 4 grid's first row,
+    // 1 and 3 (the file's second pin) fall.
+    let obj = std::fs::read_to_string(out.join("frame_0001.obj")).unwrap();
+    let v: Vec<[f64; 3]> = obj
+        .lines()
+        .filter_map(|l| l.strip_prefix("v "))
+        .map(|l| {
+            let c: Vec<f64> = l.split_whitespace().map(|c| c.parse().unwrap()).collect();
+            [c[0], c[1], c[2]]
+        })
+        .collect();
+    let rest = |i: usize| [i as f64 / 3.0, 0.0, 0.0];
+    for i in [0, 2] {
+        for c in 0..3 {
+            assert!(
+                (v[i][c] - rest(i)[c]).abs() < 1e-12,
+                "pin {i} moved: {:?}",
+                v[i]
+            );
+        }
+    }
+    for i in [1, 3] {
+        assert!(v[i][1] < -1e-4, "particle {i} did not fall: {:?}", v[i]);
+    }
 }
