@@ -374,6 +374,13 @@ fn run(args: RunArgs) -> Result<(), Failure> {
     }
     let out_dir = args.out.unwrap_or_else(|| default_out(&args.scene));
     let frames = sim.settings.frames as u64;
+    // A directory that cannot be made is the user's argument, not a failure of the run.
+    std::fs::create_dir_all(&out_dir).map_err(|e| {
+        Failure::input(format!(
+            "{}: cannot create the output directory: {e}",
+            out_dir.display()
+        ))
+    })?;
     let mut out = RunOutput::create(&out_dir, &mut sim).map_err(Failure::run)?;
     out.write_frame(&sim).map_err(Failure::run)?;
 

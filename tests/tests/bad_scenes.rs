@@ -489,3 +489,24 @@ fn overrides_set_inline_table_keys_array_entries_and_new_keys() {
         assert!(v[i][1] < -1e-4, "particle {i} did not fall: {:?}", v[i]);
     }
 }
+
+/// An output directory that cannot be made (here: under a file) is bad input, exit 2, with
+/// the path named; the file is left as it was.
+#[test]
+fn an_output_directory_that_cannot_be_made_is_refused_as_bad_input() {
+    let dir = temp_dir("bad-out");
+    let scene = dir.join("scene.toml");
+    std::fs::write(&scene, GOOD).unwrap();
+    let blocker = dir.join("a_file");
+    std::fs::write(&blocker, "keep me").unwrap();
+    let out = blocker.join("out");
+    let res = host_command("run", &scene, &out).output().unwrap();
+    let (code, msg) = exit_and_last_error(&res);
+    assert_eq!(code, Some(2), "stderr: {msg}");
+    assert!(
+        msg.contains(&out.display().to_string())
+            && msg.contains("cannot create the output directory"),
+        "{msg}"
+    );
+    assert_eq!(std::fs::read_to_string(&blocker).unwrap(), "keep me");
+}
