@@ -337,6 +337,13 @@ fn run(args: RunArgs) -> Result<(), Failure> {
     }
     let registry = discover(&args.plugin_args, args.quiet)?;
     let mut sim = Simulation::build(&scene, &registry).map_err(Failure::input)?;
+    if sim.particles.is_empty() {
+        // Valid (every field has a default), but most likely not what was meant.
+        eprintln!(
+            "warning: {}: the scene has no objects; its frames will be empty",
+            args.scene.display()
+        );
+    }
     if let Some(t) = args.threads {
         sim.threads = t as usize;
     }

@@ -510,3 +510,18 @@ fn an_output_directory_that_cannot_be_made_is_refused_as_bad_input() {
     );
     assert_eq!(std::fs::read_to_string(&blocker).unwrap(), "keep me");
 }
+
+/// An empty scene file is a valid scene (every field has a default) and runs, but the host
+/// warns that it has no objects, naming the file.
+#[test]
+fn an_empty_scene_runs_with_a_warning_that_it_has_no_objects() {
+    let (code, msg, scene, out) = run("empty", "");
+    assert_eq!(code, Some(0), "stderr: {msg}");
+    assert!(
+        msg.contains("warning:")
+            && msg.contains(&scene.display().to_string())
+            && msg.contains("no objects"),
+        "{msg}"
+    );
+    assert!(out.join("run.json").exists());
+}
