@@ -343,20 +343,35 @@ fn plot(
 }
 
 /// Runs the benchmark and writes its files; returns the rows.
-pub fn run(args: &BenchArgs, registry: &Registry) -> Result<Vec<Row>, String> {
+pub fn run(args: &BenchArgs, registry: &Registry) -> Result<Vec<Row>, BenchError> {
+    // Bad input first, before any combination runs: the scene, its frames, a simulation built
+    // from it, and the output directory.
+    let input = BenchError::Input;
     let mut scene =
-        Scene::load_with_overrides(&args.scene, &args.set).map_err(|e| e.to_string())?;
+        Scene::load_with_overrides(&args.scene, &args.set).map_err(|e| input(e.to_string()))?;
     if let Some(f) = args.frames {
         scene.file.solver.frames = f;
     }
     // Every figure is a mean or a peak over the frames run: none without a frame.
     let frames = scene.file.solver.frames;
     if frames == 0 {
-        return Err(format!(
+        return Err(input(format!(
             "{}: the benchmark needs at least 1 frame (--frames or the scene's frames)",
             args.scene.display()
-        ));
+        )));
     }
+    let names: Vec<String> = build(&scene, registry, (1, 1), args.threads)
+        .map_err(input)?
+        .groups
+        .iter()
+        .map(|g| g.name.clone())
+        .collect();
+    std::fs::create_dir_all(&args.out).map_err(|e| {
+        input(format!(
+            "{}: cannot create the output directory: {e}",
+            args.out.display()
+        ))
+    })?;
     let reference = args.reference.unwrap_or((
         *args.substeps.iter().max().unwrap_or(&1),
         *args.iterations.iter().max().unwrap_or(&1),
@@ -367,17 +382,34 @@ pub fn run(args: &BenchArgs, registry: &Registry) -> Result<Vec<Row>, String> {
             reference.0, reference.1
         );
     }
-    let ref_x = reference_positions(&scene, registry, reference, frames, args.threads)?;
-    let names: Vec<String> = build(&scene, registry, (1, 1), args.threads)?
-        .groups
-        .iter()
-        .map(|g| g.name.clone())
-        .collect();
+    measure_all(args, registry, &scene, frames, reference, &names).map_err(BenchError::Run)
+}
+
+/// Why a benchmark stopped: bad input (the scene, the output directory), found before any
+/// combination runs, or a failure while running or writing.
+#[derive(Debug)]
+pub enum BenchError {
+    /// Bad input.
+    Input(String),
+    /// A failure of a run or of the output.
+    Run(String),
+}
+
+/// The reference run, every combination, then `bench.csv` and the plots.
+fn measure_all(
+    args: &BenchArgs,
+    registry: &Registry,
+    scene: &Scene,
+    frames: u32,
+    reference: (u32, u32),
+    names: &[String],
+) -> Result<Vec<Row>, String> {
+    let ref_x = reference_positions(scene, registry, reference, frames, args.threads)?;
     let mut rows = Vec::new();
     for &s in &args.substeps {
         for &i in &args.iterations {
             let row = measure(
-                &scene,
+                scene,
                 registry,
                 (s, i),
                 frames,
@@ -400,7 +432,7 @@ pub fn run(args: &BenchArgs, registry: &Registry) -> Result<Vec<Row>, String> {
         }
     }
     std::fs::create_dir_all(&args.out).map_err(|e| format!("{}: {e}", args.out.display()))?;
-    write_atomic(&args.out.join("bench.csv"), csv(&rows, &names).as_bytes())
+    write_atomic(&args.out.join("bench.csv"), csv(&rows, names).as_bytes())
         .map_err(|e| e.to_string())?;
     let title = format!(
         "{}: time per frame vs position error (reference {}x{})",

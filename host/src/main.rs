@@ -209,7 +209,10 @@ fn main() -> ExitCode {
                 quiet,
             };
             let registry = discover(&plugin_args, quiet)?;
-            bench::run(&args, &registry).map_err(Failure::run)?;
+            bench::run(&args, &registry).map_err(|e| match e {
+                bench::BenchError::Input(m) => Failure::input(m),
+                bench::BenchError::Run(m) => Failure::run(m),
+            })?;
             if !quiet {
                 println!("wrote {}", args.out.join("bench.csv").display());
             }

@@ -2,7 +2,8 @@
 //! combination with the documented columns, the reference row exactly at zero position error,
 //! errors that fall with more substeps, the Small Steps result the README states (n substeps of
 //! one pass beat one substep of n passes), no energy made by hard constraints, both plots
-//! written; a benchmark of zero frames is refused.
+//! written; bad input — zero frames, a bad scene, an output directory that cannot be made — is
+//! refused as such (exit 2) before any combination runs.
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -130,8 +131,55 @@ fn a_benchmark_of_zero_frames_is_refused() {
         "bench-zero-frames",
         &["--substeps", "1", "--iterations", "1", "--frames", "0"],
     );
-    assert!(!output.status.success());
+    assert_eq!(output.status.code(), Some(2), "bad input");
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(stderr.contains("needs at least 1 frame"), "{stderr}");
     assert!(!out.join("bench.csv").exists());
+}
+
+/// A bad scene and an output directory that cannot be made are bad input (exit 2), found
+/// before any combination runs: neither the reference run nor a row is measured (before, both
+/// exited 1, and the directory only failed after the whole sweep had run).
+#[test]
+fn a_bad_scene_or_output_directory_is_refused_before_the_sweep_runs() {
+    let (output, out) = bench(
+        "bench-bad-scene",
+        &[
+            "--substeps",
+            "1",
+            "--iterations",
+            "1",
+            "--set",
+            "constraints.0.kind=\"strech\"",
+        ],
+    );
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("no plugin provides kind `strech`"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("reference:") && !out.exists(), "{stderr}");
+
+    let dir = temp_dir("bench-bad-out");
+    let scene = dir.join("drape.toml");
+    std::fs::write(&scene, drape_text(12, 10, 2, 1, STRETCH)).unwrap();
+    let blocker = dir.join("a_file");
+    std::fs::write(&blocker, "keep me").unwrap();
+    let out = blocker.join("out");
+    let output = host_command("bench", &scene, &out)
+        .args(["--substeps", "1", "--iterations", "1"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("cannot create the output directory"),
+        "{stderr}"
+    );
+    assert!(
+        !stderr.contains("substeps x"),
+        "a combination ran: {stderr}"
+    );
+    assert_eq!(std::fs::read_to_string(&blocker).unwrap(), "keep me");
 }
