@@ -559,15 +559,9 @@ fn apply_override(doc: &mut toml_edit::DocumentMut, assignment: &str) -> Result<
     let (key, value) = assignment
         .split_once('=')
         .ok_or_else(|| "expected KEY=VALUE".to_string())?;
-    let parsed: toml_edit::DocumentMut =
-        format!("v = {}", value.trim())
-            .parse()
-            .map_err(|e: toml_edit::TomlError| {
-                format!(
-                    "bad value: {}",
-                    e.message().split_whitespace().collect::<Vec<_>>().join(" ")
-                )
-            })?;
+    let parsed: toml_edit::DocumentMut = format!("v = {}", value.trim())
+        .parse()
+        .map_err(|e: toml_edit::TomlError| format!("bad value: {}", one_line(e.message())))?;
     let mut value = parsed
         .get("v")
         .and_then(Item::as_value)
@@ -637,6 +631,23 @@ fn apply_override(doc: &mut toml_edit::DocumentMut, assignment: &str) -> Result<
     Ok(())
 }
 
+/// Where byte `offset` of a scene text is: in the file, through `origin` when overrides
+/// wrote the text.
+fn place(text: &str, origin: Option<&Origin>, offset: usize) -> Place {
+    match origin {
+        Some(origin) => origin.place(text, offset),
+        None => {
+            let (line, col) = line_col(text, offset);
+            Place::At(line, col)
+        }
+    }
+}
+
+/// A parser's message on one line (the TOML parsers' span several).
+fn one_line(message: &str) -> String {
+    message.split_whitespace().collect::<Vec<_>>().join(" ")
+}
+
 /// 1-based line and column of a byte offset.
 pub fn line_col(source: &str, offset: usize) -> (usize, usize) {
     let offset = offset.min(source.len());
@@ -675,7 +686,7 @@ impl Scene {
                     path: path.to_path_buf(),
                     line,
                     col,
-                    message: e.message().split_whitespace().collect::<Vec<_>>().join(" "),
+                    message: one_line(e.message()),
                 }
             })?;
         for o in overrides {
@@ -698,27 +709,20 @@ impl Scene {
 
     fn parse_from(source: &str, path: &Path, origin: Option<Origin>) -> Result<Scene, SceneError> {
         let file: SceneFile = toml::from_str(source).map_err(|e| {
-            let message = e.message().split_whitespace().collect::<Vec<_>>().join(" ");
-            let offset = e.span().map_or(0, |s| s.start);
-            match origin.as_ref().map(|o| o.place(source, offset)) {
-                Some(Place::Override(o)) => SceneError::Invalid {
+            let message = one_line(e.message());
+            match place(source, origin.as_ref(), e.span().map_or(0, |s| s.start)) {
+                Place::Override(o) => SceneError::Invalid {
                     path: path.to_path_buf(),
                     line: 0,
                     col: 0,
                     message: format!("--set {o}: {message}"),
                 },
-                place => {
-                    let (line, col) = match place {
-                        Some(Place::At(line, col)) => (line, col),
-                        _ => e.span().map_or((1, 1), |s| line_col(source, s.start)),
-                    };
-                    SceneError::Parse {
-                        path: path.to_path_buf(),
-                        line,
-                        col,
-                        message,
-                    }
-                }
+                Place::At(line, col) => SceneError::Parse {
+                    path: path.to_path_buf(),
+                    line,
+                    col,
+                    message,
+                },
             }
         })?;
         let scene = Scene {
@@ -733,13 +737,7 @@ impl Scene {
 
     /// Where byte `offset` of the scene text is.
     fn place(&self, offset: usize) -> Place {
-        match &self.origin {
-            Some(origin) => origin.place(&self.source, offset),
-            None => {
-                let (line, col) = line_col(&self.source, offset);
-                Place::At(line, col)
-            }
-        }
+        place(&self.source, self.origin.as_ref(), offset)
     }
 
     /// `path:line:col` of byte `offset` of the scene text in the file, or `path (--set …)`

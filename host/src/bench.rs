@@ -366,12 +366,7 @@ pub fn run(args: &BenchArgs, registry: &Registry) -> Result<Vec<Row>, BenchError
         .iter()
         .map(|g| g.name.clone())
         .collect();
-    std::fs::create_dir_all(&args.out).map_err(|e| {
-        input(format!(
-            "{}: cannot create the output directory: {e}",
-            args.out.display()
-        ))
-    })?;
+    crate::create_output_dir(&args.out).map_err(input)?;
     let reference = args.reference.unwrap_or((
         *args.substeps.iter().max().unwrap_or(&1),
         *args.iterations.iter().max().unwrap_or(&1),
@@ -431,7 +426,6 @@ fn measure_all(
             rows.push(row);
         }
     }
-    std::fs::create_dir_all(&args.out).map_err(|e| format!("{}: {e}", args.out.display()))?;
     write_atomic(&args.out.join("bench.csv"), csv(&rows, names).as_bytes())
         .map_err(|e| e.to_string())?;
     let title = format!(

@@ -321,6 +321,13 @@ fn default_out(scene: &Path) -> PathBuf {
     PathBuf::from("out").join(stem)
 }
 
+/// Makes the output directory before anything is run or written: one that cannot be made is
+/// the user's argument (bad input), not a failure of the run.
+pub(crate) fn create_output_dir(dir: &Path) -> Result<(), String> {
+    std::fs::create_dir_all(dir)
+        .map_err(|e| format!("{}: cannot create the output directory: {e}", dir.display()))
+}
+
 fn run(args: RunArgs) -> Result<(), Failure> {
     let mut scene = Scene::load_with_overrides(&args.scene, &args.set).map_err(Failure::input)?;
     if let Some(f) = args.frames {
@@ -384,13 +391,7 @@ fn run(args: RunArgs) -> Result<(), Failure> {
     }
     let out_dir = args.out.unwrap_or_else(|| default_out(&args.scene));
     let frames = sim.settings.frames as u64;
-    // A directory that cannot be made is the user's argument, not a failure of the run.
-    std::fs::create_dir_all(&out_dir).map_err(|e| {
-        Failure::input(format!(
-            "{}: cannot create the output directory: {e}",
-            out_dir.display()
-        ))
-    })?;
+    create_output_dir(&out_dir).map_err(Failure::input)?;
     let mut out = RunOutput::create(&out_dir, &mut sim).map_err(Failure::run)?;
     out.write_frame(&sim).map_err(Failure::run)?;
 

@@ -29,13 +29,7 @@ objects = ["cloth"]
 /// Runs `nucleus run` on `text` written to a scene file; returns (exit code, last stderr line,
 /// output directory).
 fn run(tag: &str, text: &str) -> (Option<i32>, String, PathBuf, PathBuf) {
-    let dir = temp_dir(tag);
-    let scene = dir.join("scene.toml");
-    std::fs::write(&scene, text).unwrap();
-    let out = dir.join("out");
-    let res = host_command("run", &scene, &out).output().unwrap();
-    let (code, last) = exit_and_last_error(&res);
-    (code, last, scene, out)
+    run_with_sets(tag, text, &[])
 }
 
 fn assert_error_at(tag: &str, text: &str, line: usize, needle: &str) {

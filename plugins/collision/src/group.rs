@@ -1774,10 +1774,11 @@ impl CollisionGroup {
     /// none (what the pass would take at the candidate's first visit; a refresh within the
     /// substep carries the others over), with how far its particles have moved from `x_ref`.
     /// The pass's contacts move particles before it reaches a candidate, so a separation taken
-    /// ahead proves the pair apart only with that motion added ([`Self::skip`], the certificate every later pass uses too);
-    /// where it proves nothing, the pass takes it again over the positions of the visit. The
-    /// verdicts, hence the contacts and positions, are those of a pass that takes each
-    /// separation at its visit: the same bits on any number of threads.
+    /// ahead proves the pair apart only with that motion added ([`Self::skip`], the
+    /// certificate every later pass uses too); where it proves nothing, the pass takes it
+    /// again over the positions of the visit. The verdicts, hence the contacts and positions,
+    /// are those of a pass that takes each separation at its visit: the same bits on any
+    /// number of threads.
     fn take_separations_ahead(&mut self, x0: &[DVec3], x: &[DVec3], team: TeamRef<'_>) {
         let n = self.candidates.len();
         let parts = team.parts();
