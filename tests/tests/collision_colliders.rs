@@ -289,3 +289,46 @@ params = { thickness = 0.003, objects_settings = { paddle = { thickness = 0.002 
         "the cloth was not carried: deepest z {carried}"
     );
 }
+
+/// Largest `|l − L| / L` over the edges of `now`'s triangles against `rest`'s.
+fn max_triangle_edge_strain(rest: &[[DVec3; 3]], now: &[[DVec3; 3]]) -> f64 {
+    let mut worst: f64 = 0.0;
+    for (r, n) in rest.iter().zip(now) {
+        for k in 0..3 {
+            let l0 = (r[k] - r[(k + 1) % 3]).length();
+            let l = (n[k] - n[(k + 1) % 3]).length();
+            worst = worst.max((l - l0).abs() / l0);
+        }
+    }
+    worst
+}
+
+/// A cloth whose start cuts through a sphere collider — a common mistake in a scene — should
+/// be pushed out over a few substeps, its hard edges kept. It is not: the last pass projects
+/// every vertex out of the sphere at once (up to 0.28 m in one substep), the fail-safe then
+/// freezes the vertices whose jump crosses the rest of the cloth back inside, and the sweep
+/// repeats every substep. Measured 2026-11-24 (`scenes/cloth_on_sphere.toml` started at
+/// y = 0.1 instead of 0.45, 2 threads): after 2 frames the hard edges are stretched up to
+/// 522 % (RMS 137 %), and a frame takes 8.3 s against 0.11 s from the scene's own start.
+/// What would fix it: a depenetration speed limit for vertices and features that start a
+/// substep inside a collider (PhysX's `maxDepenetrationVelocity`, Maya's push-out), in the
+/// contacts, the final projections and the fail-safe alike.
+#[test]
+#[ignore = "fails: a cloth started through a sphere is torn (edges stretched ~5x) and each frame takes seconds; needs a depenetration speed limit"]
+fn a_cloth_started_through_a_sphere_is_pushed_out_without_tearing() {
+    let text = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/cloth_on_sphere.toml"),
+    )
+    .expect("scene");
+    let text = text.replace("origin = [-0.5, 0.45, -0.5]", "origin = [-0.5, 0.1, -0.5]");
+    assert!(text.contains("0.1, -0.5]"));
+    let mut sim = simulation(&text, &[]);
+    let rest = triangles(&sim, "cloth");
+    run(&mut sim, 2, |_| {});
+    let strain = max_triangle_edge_strain(&rest, &triangles(&sim, "cloth"));
+    assert!(
+        strain < 0.25,
+        "hard edges stretched by {:.0} % pushing the cloth out of the sphere",
+        strain * 100.0
+    );
+}

@@ -270,6 +270,47 @@ fn bad_parameters_are_refused_naming_the_parameter_and_the_object_or_collider() 
     }
 }
 
+/// A self-colliding cloth thicker than four times its mean edge length is refused at build,
+/// naming the object and the limit (it would keep hundreds of pairs a vertex with itself at
+/// rest); the same thickness is accepted without self-collision, or on a kinematic object.
+#[test]
+fn a_self_colliding_cloth_much_thicker_than_its_edges_is_refused() {
+    // A 1 m, 9 × 9 sheet: mean edge (144 × 0.125 + 64 × 0.177) / 208 = 0.141 m.
+    let sheet = |pins: &str, params: &str| {
+        format!(
+            r#"
+[[objects]]
+name = "sheet"
+pins = [{pins}]
+[objects.grid]
+size = [1.0, 1.0]
+resolution = [9, 9]
+[[constraints]]
+kind = "collision"
+params = {{ {params} }}
+"#
+        )
+    };
+    assert!(
+        simulation(&sheet("0", "thickness = 0.5")).is_ok(),
+        "3.5 times"
+    );
+    let err = simulation(&sheet("0", "thickness = 0.6"))
+        .err()
+        .expect("4.3 times refused");
+    for w in [
+        "`sheet`",
+        "thickness 0.6 m is 4.3 times",
+        "at most 4 times",
+        "5.637e-1 m",
+        "self_collision",
+    ] {
+        assert!(err.contains(w), "`{err}` does not mention {w}");
+    }
+    assert!(simulation(&sheet("0", "thickness = 0.6, self_collision = false")).is_ok());
+    assert!(simulation(&sheet("\"all\"", "thickness = 0.6")).is_ok());
+}
+
 /// A pinned 1 m sheet (9 × 9 vertices) at y = 0 and a particle `p` above its middle
 /// (between vertices) falling at `speed`; returns the particle's height after 0.5 s.
 fn particle_on_sheet(params: &str, speed: f64) -> f64 {
