@@ -171,6 +171,20 @@ fn splice(text: &str, (a, z): (usize, usize), with: &str) -> String {
     format!("{}{with}{}", &text[..a], &text[z..])
 }
 
+/// A random one of the tokens `want` accepts (its byte range), if there is one.
+fn pick(toks: &[Token], rng: &mut Rng, want: impl Fn(&Token) -> bool) -> Option<(usize, usize)> {
+    let ranges: Vec<(usize, usize)> = toks
+        .iter()
+        .filter(|t| want(t))
+        .map(|t| match *t {
+            Token::Number(a, z) | Token::Str(a, z) | Token::Bool(a, z) | Token::Array(a, z) => {
+                (a, z)
+            }
+        })
+        .collect();
+    (!ranges.is_empty()).then(|| ranges[rng.below(ranges.len())])
+}
+
 /// One random mutation of `text`: the mutated text and a description of the edit.
 fn mutate(text: &str, rng: &mut Rng) -> (String, String) {
     let toks = tokens(text);
@@ -178,17 +192,9 @@ fn mutate(text: &str, rng: &mut Rng) -> (String, String) {
     for _ in 0..16 {
         match rng.below(10) {
             0..=3 => {
-                let nums: Vec<_> = toks
-                    .iter()
-                    .filter_map(|t| match *t {
-                        Token::Number(a, z) => Some((a, z)),
-                        _ => None,
-                    })
-                    .collect();
-                if nums.is_empty() {
+                let Some(r) = pick(&toks, rng, |t| matches!(t, Token::Number(..))) else {
                     continue;
-                }
-                let r = nums[rng.below(nums.len())];
+                };
                 let v = EVIL_NUMBERS[rng.below(EVIL_NUMBERS.len())];
                 return (
                     splice(text, r, v),
@@ -196,17 +202,9 @@ fn mutate(text: &str, rng: &mut Rng) -> (String, String) {
                 );
             }
             4 | 5 => {
-                let strs: Vec<_> = toks
-                    .iter()
-                    .filter_map(|t| match *t {
-                        Token::Str(a, z) => Some((a, z)),
-                        _ => None,
-                    })
-                    .collect();
-                if strs.is_empty() {
+                let Some(r) = pick(&toks, rng, |t| matches!(t, Token::Str(..))) else {
                     continue;
-                }
-                let r = strs[rng.below(strs.len())];
+                };
                 let v = EVIL_STRINGS[rng.below(EVIL_STRINGS.len())];
                 return (
                     splice(text, r, v),
@@ -214,18 +212,11 @@ fn mutate(text: &str, rng: &mut Rng) -> (String, String) {
                 );
             }
             6 => {
-                let arrays: Vec<_> = toks
-                    .iter()
-                    .filter_map(|t| match *t {
-                        Token::Array(a, z) => Some((a, z)),
-                        Token::Bool(a, z) => Some((a, z)),
-                        _ => None,
-                    })
-                    .collect();
-                if arrays.is_empty() {
+                let Some(r) = pick(&toks, rng, |t| {
+                    matches!(t, Token::Array(..) | Token::Bool(..))
+                }) else {
                     continue;
-                }
-                let r = arrays[rng.below(arrays.len())];
+                };
                 let old = &text[r.0..r.1];
                 let v = match old {
                     "true" => "false",
