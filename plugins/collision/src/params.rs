@@ -139,7 +139,7 @@ impl CollisionParams {
         let d = Self::default();
         vec![
             ParamSpec::number("thickness", d.thickness)
-                .doc("collision radius of every vertex (sphere), edge (cylinder) and face (offset slab); two simplices are kept the sum of their thicknesses apart (Maya's nCloth thickness, in metres)")
+                .doc("collision radius of every vertex (sphere), edge (cylinder) and face (offset slab); two simplices are kept the sum of their thicknesses apart (Maya's nCloth thickness, in metres); a self-colliding object may be at most 4 times as thick as its mean edge length")
                 .unit("m")
                 .range(0.0, 1e3),
             ParamSpec::boolean("self_collision", d.self_collision)
