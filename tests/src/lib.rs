@@ -100,6 +100,24 @@ pub fn plugin_dir_with(tag: &str, libs: &[PathBuf]) -> PathBuf {
     dir
 }
 
+/// The shipped scene `scenes/<name>`.
+pub fn shipped_scene(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../scenes")
+        .join(name)
+}
+
+/// Every shipped scene (`scenes/*.toml`), sorted.
+pub fn shipped_scenes() -> Vec<PathBuf> {
+    let mut paths: Vec<PathBuf> = std::fs::read_dir(shipped_scene(""))
+        .expect("scenes/")
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    paths.sort();
+    paths
+}
+
 /// The staged stretch plugin library.
 pub fn stretch_lib() -> PathBuf {
     plugin_dir().join(lib_name("nucleus_stretch"))

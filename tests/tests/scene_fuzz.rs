@@ -18,7 +18,7 @@
 //! names the scene, the mutant's number and the edit.
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use nucleus_core::{Registry, Scene, Simulation};
 use nucleus_tests::*;
@@ -313,18 +313,6 @@ fn try_mutant(text: &str, path: &Path, registry: &Registry, step: bool) -> Resul
             }
         }
     }
-}
-
-/// The shipped scenes, sorted.
-fn shipped_scenes() -> Vec<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes");
-    let mut v: Vec<PathBuf> = std::fs::read_dir(&dir)
-        .expect("scenes directory")
-        .map(|e| e.expect("entry").path())
-        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
-        .collect();
-    v.sort();
-    v
 }
 
 /// Runs `per_scene` mutants of every shipped scene from `seed`; panics with every failure.

@@ -7,13 +7,7 @@ use nucleus_tests::*;
 
 #[test]
 fn every_scene_builds_and_runs_its_first_frames() {
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes");
-    let mut paths: Vec<_> = std::fs::read_dir(&dir)
-        .expect("scenes/")
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
-        .collect();
-    paths.sort();
+    let paths = shipped_scenes();
     assert!(paths.len() >= 16, "{} scenes", paths.len());
     let registry = registry(&[plugin_dir()]);
     for path in &paths {

@@ -648,12 +648,9 @@ impl CollisionGroup {
             sum += self.rest[e[0] as usize].distance(self.rest[e[1] as usize]);
             count += 1;
         }
+        // No edges, or a rest shape without length (or not finite): nothing to compare with.
         let mean = if count > 0 { sum / count as f64 } else { 0.0 };
-        if count == 0
-            || mean.is_nan()
-            || mean <= 0.0
-            || s.thickness <= MAX_THICKNESS_PER_EDGE * mean
-        {
+        if mean.is_nan() || mean <= 0.0 || s.thickness <= MAX_THICKNESS_PER_EDGE * mean {
             return Ok(());
         }
         Err(format!(
