@@ -290,42 +290,69 @@ params = { thickness = 0.003, objects_settings = { paddle = { thickness = 0.002 
     );
 }
 
-/// Largest `|l − L| / L` over the edges of `now`'s triangles against `rest`'s.
-fn max_triangle_edge_strain(rest: &[[DVec3; 3]], now: &[[DVec3; 3]]) -> f64 {
-    let mut worst: f64 = 0.0;
+/// The largest and the RMS stretch `max(l − L, 0) / L` over the edges of `now`'s triangles
+/// against `rest`'s (compression, soft in the scenes that use this, does not count).
+fn triangle_edge_stretch(rest: &[[DVec3; 3]], now: &[[DVec3; 3]]) -> (f64, f64) {
+    let (mut worst, mut sum, mut count) = (0.0f64, 0.0, 0usize);
     for (r, n) in rest.iter().zip(now) {
         for k in 0..3 {
             let l0 = (r[k] - r[(k + 1) % 3]).length();
             let l = (n[k] - n[(k + 1) % 3]).length();
-            worst = worst.max((l - l0).abs() / l0);
+            let stretch = ((l - l0) / l0).max(0.0);
+            worst = worst.max(stretch);
+            sum += stretch * stretch;
+            count += 1;
         }
     }
-    worst
+    (worst, (sum / count.max(1) as f64).sqrt())
 }
 
-/// A cloth whose start cuts through a sphere collider — a common mistake in a scene — should
-/// be pushed out over a few substeps, its hard edges kept. It is not: the last pass projects
-/// every vertex out of the sphere at once (up to 0.28 m in one substep), the fail-safe then
-/// freezes the vertices whose jump crosses the rest of the cloth back inside, and the sweep
-/// repeats every substep. Measured 2026-11-24 (`scenes/cloth_on_sphere.toml` started at
-/// y = 0.1 instead of 0.45, 2 threads): after 2 frames the hard edges are stretched up to
-/// 522 % (RMS 137 %), and a frame takes 8.3 s against 0.11 s from the scene's own start.
-/// What would fix it: a depenetration speed limit for vertices and features that start a
-/// substep inside a collider (PhysX's `maxDepenetrationVelocity`, Maya's push-out), in the
-/// contacts, the final projections and the fail-safe alike.
+/// A cloth whose start cuts through a sphere collider — a common mistake in a scene — is
+/// pushed out over a few frames at the collision's push-out speed (1 m/s by default), its
+/// hard edges stretched about as much as the same cloth's own fall onto the sphere stretches
+/// them: `scenes/cloth_on_sphere.toml` from its start at y = 0.45 (10 substeps × 1 pass, soft
+/// compression) peaks at impact at 48 % on a few edges and 13.2 % RMS; started at y = 0.1,
+/// its middle 0.2 m deep in the 0.3 m sphere, it peaks at 51 % and 9.9 % (measured
+/// 2026-11-24), within the bounds of 60 % and 12 % asserted here. Before the push-out limit
+/// the last pass projected every vertex out at once, the fail-safe froze the jumps that
+/// crossed the rest of the cloth back inside, and after 2 frames the edges were stretched up
+/// to 522 % (RMS 137 %) at 8.3 s a frame.
 #[test]
-#[ignore = "fails: a cloth started through a sphere is torn (edges stretched ~5x) and each frame takes seconds; needs a depenetration speed limit"]
 fn a_cloth_started_through_a_sphere_is_pushed_out_without_tearing() {
     let text = std::fs::read_to_string(shipped_scene("cloth_on_sphere.toml")).expect("scene");
     let text = text.replace("origin = [-0.5, 0.45, -0.5]", "origin = [-0.5, 0.1, -0.5]");
-    assert!(text.contains("0.1, -0.5]"));
+    assert!(text.contains("[-0.5, 0.1, -0.5]"));
     let mut sim = simulation(&text, &[]);
     let rest = triangles(&sim, "cloth");
-    run(&mut sim, 2, |_| {});
-    let strain = max_triangle_edge_strain(&rest, &triangles(&sim, "cloth"));
+    let cloth = particles_of(&sim, "cloth");
+    let started_inside = sim.positions()[cloth.clone()]
+        .iter()
+        .filter(|p| p.length() < 0.3)
+        .count();
     assert!(
-        strain < 0.25,
-        "hard edges stretched by {:.0} % pushing the cloth out of the sphere",
-        strain * 100.0
+        started_inside > 800,
+        "{started_inside} vertices start inside"
+    );
+    for frame in 1..=14 {
+        run(&mut sim, 1, |_| {});
+        let (max, rms) = triangle_edge_stretch(&rest, &triangles(&sim, "cloth"));
+        assert!(
+            max < 0.6 && rms < 0.12,
+            "frame {frame}: hard edges stretched by up to {:.0} % (RMS {:.1} %) pushing the \
+             cloth out of the sphere",
+            max * 100.0,
+            rms * 100.0
+        );
+    }
+    // Out in 14 frames (0.23 s): the middle's 0.2 m at 1 m/s is 12 frames, and the stretch
+    // constraints pull the vertices out too. Every vertex is then kept at its contact
+    // distance, the sphere's radius plus the cloth's 5 mm thickness.
+    let closest = sim.positions()[cloth]
+        .iter()
+        .map(|p| p.length())
+        .fold(f64::INFINITY, f64::min);
+    assert!(
+        closest > 0.305 - 1e-6,
+        "a vertex is still {closest} m from the sphere's centre"
     );
 }

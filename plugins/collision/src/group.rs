@@ -87,6 +87,8 @@ pub struct CollisionGroup {
     restitution: f64,
     mu_static: f64,
     mu_dynamic: f64,
+    /// Depenetration speed limit (m/s): see [`push_out_reach`].
+    push_out_speed: f64,
     /// Settings of each target object (group-local object index).
     settings: Vec<ObjectSettings>,
     /// Excluded pairs of group-local objects (sorted).
@@ -268,6 +270,21 @@ fn track(x0: &[DVec3], x: &[DVec3], i: u32) -> Track {
     }
 }
 
+/// The distance a primitive is kept from an analytic collider (or its feature) at the end of
+/// a substep: its contact distance `reach`, unless it started the substep deeper, at
+/// `start` (m; the signed distance from the collider's surface for a vertex, the distance
+/// from the feature otherwise): then `start + push` with `push = push_out_speed · h`, the
+/// most it may leave by in one substep. Pushing a cloth placed through a sphere out in one
+/// substep moves its inner vertices by up to the sphere's radius while their neighbours
+/// stay, which tears the cloth and sends every jump through the rest of it; at a bounded
+/// speed the stretch constraints carry the neighbours along. A primitive that starts
+/// outside (`start ≥ reach − push`, every resting contact) keeps `reach`. A NaN start
+/// keeps `reach` too.
+#[inline]
+pub(crate) fn push_out_reach(reach: f64, start: f64, push: f64) -> f64 {
+    reach.min(start + push)
+}
+
 /// Sorts the hits of one query (those from `from` on) by their second primitive.
 fn sort_by_second(pending: &mut [(Candidate, f64)], from: usize) {
     pending[from..].sort_unstable_by_key(|c| c.0.pair[1]);
@@ -351,6 +368,7 @@ impl CollisionGroup {
             restitution: params.restitution,
             mu_static: params.friction_static,
             mu_dynamic: params.friction_dynamic,
+            push_out_speed: params.push_out_speed,
             settings,
             excluded,
             rest,
@@ -1701,7 +1719,12 @@ impl CollisionGroup {
         known: Option<Separation>,
     ) -> Option<Contact> {
         let track = |i: u32| track(x0, x, i);
-        let d = thickness_scale * reach;
+        let mut d = thickness_scale * reach;
+        if cand.kind.is_feature() && thickness_scale > 0.0 {
+            let pose0 = self.pose0[self.feature_collider(cand) as usize];
+            let start = self.feature_distance(cand, x0, pose0);
+            d = push_out_reach(d, start, self.push_out());
+        }
         let [a, b] = cand.pair;
         match cand.kind {
             PairKind::VertexFace | PairKind::EdgeEdge | PairKind::VertexEdge => {
@@ -1722,6 +1745,11 @@ impl CollisionGroup {
                 let (pose0, pose1) = (self.pose0[c], self.pose1[c]);
                 let q0 = pose0.inverse_apply(x0[p]);
                 let q1 = pose1.inverse_apply(x[p]);
+                let d = if thickness_scale > 0.0 {
+                    push_out_reach(d, col.shape.signed_distance(q0).0, self.push_out())
+                } else {
+                    d
+                };
                 let t = first_contact(&col.shape, q0, q1, d)?;
                 let qt = q0.lerp(q1, t);
                 let (phi, n_local) = col.shape.signed_distance(qt);
@@ -1934,7 +1962,7 @@ impl CollisionGroup {
 
     /// Pushes every vertex out of the analytic colliders (exact signed-distance projection at
     /// the end of the substep).
-    fn project_out_of_colliders(&self, x: &mut [DVec3], inv_mass: &[f64]) {
+    fn project_out_of_colliders(&self, x0: &[DVec3], x: &mut [DVec3], inv_mass: &[f64]) {
         for cand in &self.candidates {
             if cand.kind != PairKind::Collider {
                 continue;
@@ -1949,6 +1977,14 @@ impl CollisionGroup {
             let pose = self.pose1[c];
             let q = pose.inverse_apply(x[p]);
             let (phi, n) = col.shape.signed_distance(q);
+            if phi >= r {
+                continue;
+            }
+            let start = col
+                .shape
+                .signed_distance(self.pose0[c].inverse_apply(x0[p]))
+                .0;
+            let r = push_out_reach(r, start, self.push_out());
             if phi < r {
                 x[p] = pose.apply(q + (r - phi) * n);
             }
@@ -1965,9 +2001,9 @@ impl CollisionGroup {
     /// whose closest points coincide (no direction) is left to the fail-safe. Pushes that
     /// share particles undo each other a little, so the sweep is repeated (Gauss-Seidel, at
     /// most [`FEATURE_SWEEPS`] times) until no primitive is deeper than 1e-9 of its reach.
-    fn project_features_out(&self, x: &mut [DVec3], inv_mass: &[f64]) {
+    fn project_features_out(&self, x0: &[DVec3], x: &mut [DVec3], inv_mass: &[f64]) {
         for _ in 0..FEATURE_SWEEPS {
-            if self.project_features_out_once(x, inv_mass) <= 1e-9 {
+            if self.project_features_out_once(x0, x, inv_mass) <= 1e-9 {
                 return;
             }
         }
@@ -1975,53 +2011,27 @@ impl CollisionGroup {
 
     /// One sweep of [`Self::project_features_out`]; returns the largest deficit it found,
     /// relative to the pair's reach.
-    fn project_features_out_once(&self, x: &mut [DVec3], inv_mass: &[f64]) -> f64 {
+    fn project_features_out_once(&self, x0: &[DVec3], x: &mut [DVec3], inv_mass: &[f64]) -> f64 {
         let mut worst: f64 = 0.0;
         for (k, cand) in self.candidates.iter().enumerate() {
             if !cand.kind.is_feature() {
                 continue;
             }
-            let (a, b) = (cand.pair[0] as usize, cand.pair[1] as usize);
             let c = self.feature_collider(*cand) as usize;
-            let pose = self.pose1[c];
-            // The primitive's particles and weights of its closest point, and the feature's
-            // closest point.
-            let (ids, w, q): ([u32; 3], [f64; 3], DVec3) = match cand.kind {
-                PairKind::FeatureFace => {
-                    let t = self.faces[b];
-                    let p = pose.apply(self.feat_points[a].1);
-                    let at = |i: u32| x[i as usize];
-                    let (bary, _) =
-                        distance::point_triangle_closest(p, at(t[0]), at(t[1]), at(t[2]));
-                    (t, bary, p)
-                }
-                PairKind::FeaturePointEdge => {
-                    let e = self.edges[b];
-                    let p = pose.apply(self.feat_points[a].1);
-                    let (u, _) =
-                        distance::point_segment_closest(p, x[e[0] as usize], x[e[1] as usize]);
-                    ([e[0], e[1], e[1]], [1.0 - u, u, 0.0], p)
-                }
-                _ => {
-                    let e = self.edges[b];
-                    let [f0, f1] = self.feat_edges[a].1.map(|v| pose.apply(v));
-                    let (s, u, _) = distance::segment_segment_closest(
-                        f0,
-                        f1,
-                        x[e[0] as usize],
-                        x[e[1] as usize],
-                    );
-                    ([e[0], e[1], e[1]], [1.0 - u, u, 0.0], f0.lerp(f1, s))
-                }
-            };
+            let (ids, w, q) = self.feature_closest(*cand, x, self.pose1[c]);
             let p: DVec3 = (0..3).map(|j| w[j] * x[ids[j] as usize]).sum();
             let sep = p - q;
             let dist = sep.length();
-            let deficit = self.reach[k] - dist;
-            if deficit <= 0.0 || dist < 1e-12 || !dist.is_finite() {
+            if dist >= self.reach[k] || dist < 1e-12 || !dist.is_finite() {
                 continue;
             }
-            worst = worst.max(deficit / self.reach[k]);
+            let start = self.feature_distance(*cand, x0, self.pose0[c]);
+            let reach = push_out_reach(self.reach[k], start, self.push_out());
+            let deficit = reach - dist;
+            if deficit <= 0.0 {
+                continue;
+            }
+            worst = worst.max(deficit / reach);
             let w_total: f64 = (0..3)
                 .map(|j| inv_mass[ids[j] as usize] * w[j] * w[j])
                 .sum();
@@ -2037,6 +2047,55 @@ impl CollisionGroup {
             }
         }
         worst
+    }
+
+    /// A feature candidate's closest points, with the collider at `pose` and the particles at
+    /// `x`: the primitive's particles, their weights in its closest point, and the feature's
+    /// closest point.
+    fn feature_closest(
+        &self,
+        cand: Candidate,
+        x: &[DVec3],
+        pose: Pose,
+    ) -> ([u32; 3], [f64; 3], DVec3) {
+        let (a, b) = (cand.pair[0] as usize, cand.pair[1] as usize);
+        match cand.kind {
+            PairKind::FeatureFace => {
+                let t = self.faces[b];
+                let p = pose.apply(self.feat_points[a].1);
+                let at = |i: u32| x[i as usize];
+                let (bary, _) = distance::point_triangle_closest(p, at(t[0]), at(t[1]), at(t[2]));
+                (t, bary, p)
+            }
+            PairKind::FeaturePointEdge => {
+                let e = self.edges[b];
+                let p = pose.apply(self.feat_points[a].1);
+                let (u, _) = distance::point_segment_closest(p, x[e[0] as usize], x[e[1] as usize]);
+                ([e[0], e[1], e[1]], [1.0 - u, u, 0.0], p)
+            }
+            _ => {
+                let e = self.edges[b];
+                let [f0, f1] = self.feat_edges[a].1.map(|v| pose.apply(v));
+                let (s, u, _) =
+                    distance::segment_segment_closest(f0, f1, x[e[0] as usize], x[e[1] as usize]);
+                ([e[0], e[1], e[1]], [1.0 - u, u, 0.0], f0.lerp(f1, s))
+            }
+        }
+    }
+
+    /// The distance (m) between a feature candidate's feature, with the collider at `pose`,
+    /// and its primitive at `x`.
+    fn feature_distance(&self, cand: Candidate, x: &[DVec3], pose: Pose) -> f64 {
+        let (ids, w, q) = self.feature_closest(cand, x, pose);
+        let p: DVec3 = (0..3).map(|j| w[j] * x[ids[j] as usize]).sum();
+        (p - q).length()
+    }
+
+    /// How far (m) a primitive that starts the substep inside a collider may leave it by in
+    /// this substep: `push_out_speed · h` ([`push_out_reach`]).
+    #[inline]
+    fn push_out(&self) -> f64 {
+        self.push_out_speed * self.h
     }
 
     /// Where the fail-safe puts a frozen particle: its start, carried by the rigid motion of
@@ -2327,8 +2386,8 @@ impl ConstraintGroup for CollisionGroup {
             // Friction and the sweeps moved particles: the final projections must see every
             // pair near a collider now, not only those of the pass's candidates.
             self.refresh_escaped(x0, x, w, team);
-            self.project_features_out(x, w);
-            self.project_out_of_colliders(x, w);
+            self.project_features_out(x0, x, w);
+            self.project_out_of_colliders(x0, x, w);
             let unresolved = self.fail_safe(x0, x, w, team);
             self.stats.unresolved += unresolved;
             self.stats.contacts = self.stats.contacts.max(self.contacts.len());

@@ -151,7 +151,11 @@
 //!    contacts keep the plane of their time of impact, which drifts when cloth slides around a
 //!    curved core), then every vertex is **projected out of the analytic colliders** (exact
 //!    signed-distance projection to `r` from the surface at the end pose): no vertex ends
-//!    inside one;
+//!    inside one. A primitive that *started* the substep deeper than its contact distance
+//!    (a cloth placed through a collider) is moved out by at most `push_out_speed · h`
+//!    instead, here and in the contacts (`group::push_out_reach`): it leaves over several
+//!    substeps, its neighbours carried along by the stretch constraints, instead of being
+//!    thrown out in one jump that tears the cloth;
 //! 3. the **fail-safe**: the continuous test is run once more with zero thickness on every
 //!    candidate (for a collider's feature: reaching the collider's core — a face crossing a
 //!    box corner or a capsule's axis); while a pair still crosses, its dynamic particles are

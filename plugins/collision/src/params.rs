@@ -12,6 +12,10 @@ use crate::shapes::{Collider, Key, Motion, Shape};
 /// Default thickness (m): the collision radius of every vertex, edge and face.
 pub const DEFAULT_THICKNESS: f64 = 0.005;
 
+/// Default push-out speed (m/s): how fast a vertex, edge or face that starts a substep deeper
+/// inside an analytic collider than its thickness is moved out ([`CollisionParams::push_out_speed`]).
+pub const DEFAULT_PUSH_OUT_SPEED: f64 = 1.0;
+
 /// Default collision layers: layer 0 only (bit 0), so that everything collides with
 /// everything until a scene says otherwise.
 pub const DEFAULT_LAYERS: u32 = 1;
@@ -37,6 +41,13 @@ pub struct CollisionParams {
     pub colliders: Value,
     /// Object pairs that never collide with each other: `[["a", "b"], ...]`.
     pub exclude: Value,
+    /// Depenetration speed limit (m/s, > 0): a primitive that starts a substep deeper inside
+    /// an analytic collider than its contact distance (a cloth placed through a collider, a
+    /// collider keyed to jump into it) leaves it by at most `push_out_speed · h` a substep
+    /// instead of all at once, so its neighbours follow without tearing (PhysX's
+    /// `maxDepenetrationVelocity`, Maya's push-out). Primitives that start outside are
+    /// unaffected. Default 1 m/s.
+    pub push_out_speed: f64,
     /// Collision layers (a bitmask, bit `k` = layer `k`) of every target object and
     /// collider unless overridden (`objects_settings`, a collider's `layers`). Two objects,
     /// or an object and a collider, collide only if their masks share a bit. Default 1.
@@ -54,6 +65,7 @@ impl Default for CollisionParams {
             objects_settings: Value::Object(Default::default()),
             colliders: Value::Array(Vec::new()),
             exclude: Value::Array(Vec::new()),
+            push_out_speed: DEFAULT_PUSH_OUT_SPEED,
             layers: DEFAULT_LAYERS,
         }
     }
@@ -159,6 +171,10 @@ impl CollisionParams {
                 .doc("analytic colliders: [{ type = \"plane\", point, normal } | { type = \"sphere\", center, radius } | { type = \"box\", center, half_extents, rotation (deg, xyz) } | { type = \"capsule\", a, b, radius }], each with optional velocity (m/s) and angular_velocity (rad/s) about its pivot (default its centre), or keys = [{ time, translate, rotate (axis-angle, rad) }] as in pin_motion, thickness (m) and layers (bitmask, default the group's layers)"),
             ParamSpec::any("exclude", d.exclude)
                 .doc("object pairs that never collide with each other: [[\"a\", \"b\"], ...]"),
+            ParamSpec::number("push_out_speed", d.push_out_speed)
+                .doc("depenetration speed limit: a vertex, edge or face that starts a substep deeper inside an analytic collider than its thickness (a cloth placed through a collider) is moved out by at most this speed times the substep, so its neighbours follow without tearing; primitives outside are unaffected (PhysX's maxDepenetrationVelocity, Maya's push-out)")
+                .unit("m/s")
+                .range(1e-6, 1e6),
             ParamSpec::integer("layers", i64::from(d.layers))
                 .doc("collision layers of every target object and collider, as a bitmask (bit k = layer k; 1 = layer 0, 6 = layers 1 and 2); two objects, or an object and a collider, collide only if their masks share a bit; per object: objects_settings, per collider: its own layers; 0 collides with nothing (an object's self_collision still applies)")
                 .unit("bitmask")
@@ -188,7 +204,8 @@ impl CollisionParams {
         check("thickness", self.thickness, 0.0, 1e3)?;
         check("restitution", self.restitution, 0.0, 1.0)?;
         check("friction_static", self.friction_static, 0.0, 1e3)?;
-        check("friction_dynamic", self.friction_dynamic, 0.0, 1e3)
+        check("friction_dynamic", self.friction_dynamic, 0.0, 1e3)?;
+        check("push_out_speed", self.push_out_speed, 1e-6, 1e6)
     }
 
     /// The settings of each object named in `names` (overrides applied). Unknown names in

@@ -433,3 +433,64 @@ params = {{ thickness = 0.003, colliders = [{{ type = "box", center = [0.0, -0.2
     };
     assert_eq!(run(), run());
 }
+
+/// One particle started at `start` inside a sphere collider of radius 0.5 at the origin
+/// (particle thickness 0.005), no gravity, 4 substeps a frame; `push_out_speed` as given.
+/// Returns the particle's distance from the centre after each of `frames` frames.
+fn particle_in_sphere(start: f64, push_out_speed: f64, frames: usize) -> Vec<f64> {
+    let scene = format!(
+        r#"
+[solver]
+frame_rate = 60.0
+substeps = 4
+gravity = [0.0, 0.0, 0.0]
+[[objects]]
+name = "p"
+mass = 0.01
+[objects.particles]
+min = [{start}, 0.0, 0.0]
+max = [{start}, 0.0, 0.0]
+count = [1, 1, 1]
+[[constraints]]
+kind = "collision"
+params = {{ push_out_speed = {push_out_speed:e}, colliders = [{{ type = "sphere", center = [0.0, 0.0, 0.0], radius = 0.5 }}] }}
+"#
+    );
+    let mut sim = simulation(&scene).unwrap();
+    (0..frames)
+        .map(|_| {
+            sim.step_frame().unwrap();
+            sim.positions()[0].length()
+        })
+        .collect()
+}
+
+#[test]
+fn a_particle_started_inside_a_collider_leaves_it_at_the_push_out_speed() {
+    // From 0.1 m off the centre to the contact distance 0.505 m at 0.6 m/s: every substep
+    // (h = 1/240 s) moves it out by exactly 0.6 h, so it is at 0.1 + 0.6 t until it is out,
+    // at t = 0.675 s (frame 40.5); then it keeps its 0.6 m/s (the push-out speed bounds the
+    // velocity a push gives).
+    let r = particle_in_sphere(0.1, 0.6, 50);
+    for (f, &d) in r.iter().enumerate() {
+        let t = (f + 1) as f64 / 60.0;
+        let expected = if t <= 0.675 {
+            0.1 + 0.6 * t
+        } else {
+            0.505 + 0.6 * (t - 0.675)
+        };
+        assert!(
+            (d - expected).abs() < 1e-9,
+            "frame {}: {d} m from the centre, expected {expected}",
+            f + 1
+        );
+    }
+    // An unbounded speed (the behaviour before the limit) puts it on the surface in the first
+    // substep, 0.405 m in 1/240 s: it leaves at 97 m/s and is 1.72 m out after one frame.
+    let r = particle_in_sphere(0.1, 1e6, 1);
+    assert!(
+        (r[0] - (0.1 + 4.0 * 0.405)).abs() < 1e-9,
+        "at {} after one frame",
+        r[0]
+    );
+}
