@@ -6,13 +6,14 @@
 //! state. A panic anywhere — in the core or in a plugin, where the SDK turns it into an error
 //! saying "panicked" — fails the test and prints the mutation that caused it.
 //!
-//! Scenes with the `collision` kind are parsed and built but not stepped: valid but extreme
-//! values make one collision substep take many seconds (found by this test: gravity −2e9 m/s²
-//! on `cloth_on_sphere`, 96 s; the cloth started through the sphere, 28 s and torn, which
-//! `collision_colliders.rs` records as a known failure,
-//! `a_cloth_started_through_a_sphere_is_pushed_out_without_tearing`). It also found a 0.5 m
-//! thickness on `cloth_heap`'s 1.8 cm edges taking 30 s to build and minutes a substep; such a
-//! thickness is now refused at build (`collision`'s `MAX_THICKNESS_PER_EDGE`).
+//! Scenes with the `collision` kind are parsed and built but not stepped: a valid but extreme
+//! value makes one collision substep take a minute or more (found by this test: gravity
+//! −2e9 m/s² on `cloth_on_sphere`, 76–96 s; the collision plugin's README, "Known problems").
+//! It also found two inputs since fixed: the cloth started through the sphere (28 s a substep,
+//! torn; now pushed out at a bounded speed, `collision_colliders.rs`'s
+//! `a_cloth_started_through_a_sphere_is_pushed_out_without_tearing`), and a 0.5 m thickness
+//! on `cloth_heap`'s 1.8 cm edges taking 30 s to build and minutes a substep (now refused at
+//! build, `collision`'s `MAX_THICKNESS_PER_EDGE`).
 //!
 //! The mutations come from a fixed-seed generator, so a failure is reproducible: the message
 //! names the scene, the mutant's number and the edit.

@@ -227,6 +227,17 @@ pub struct CollisionGroup {
     /// Fail-safe carrier of each particle.
     carrier: Vec<u32>,
     frozen_list: Vec<u32>,
+    /// A displacement (m) taken off every swept box's end: every box of a substep is taken
+    /// over `[x0, x − shift]` (the colliders' and features' too), so the boxes follow the
+    /// motion the primitives share and the broad phase sees only their relative motion
+    /// ([`Self::vert_box`]). It is the mean displacement of the group's dynamic vertices over
+    /// the substep (from the prediction), updated only when that departs from it by more than
+    /// [`Self::shift_tolerance`]: a steady shift keeps the colliders' boxes where they were
+    /// found, so the candidates can be kept, and a group that moves less than that a substep
+    /// keeps a zero shift (the boxes of before the shift, bit for bit).
+    shift: DVec3,
+    /// The largest thickness of the group's objects plus its margin (m).
+    shift_tolerance: f64,
     h: f64,
     stats: FrameStats,
 }
@@ -441,6 +452,8 @@ impl CollisionGroup {
             v_pre: vec![DVec3::ZERO; n],
             carrier: vec![NONE; n],
             frozen_list: Vec::new(),
+            shift: DVec3::ZERO,
+            shift_tolerance: 0.0,
             h: 0.0,
             stats: FrameStats::default(),
         };
@@ -565,6 +578,9 @@ impl CollisionGroup {
                 }
             }
         }
+
+        let max_r = g.settings.iter().map(|s| s.thickness).fold(0.0, f64::max);
+        g.shift_tolerance = max_r + margin(max_r);
 
         // Broad-phase structures over the rest pose; refit from the first substep on.
         let radius_v = |i: usize| g.settings[g.vert_obj[i] as usize].thickness;
@@ -772,28 +788,66 @@ impl CollisionGroup {
     // Broad phase
     // ------------------------------------------------------------------------------------
 
-    /// The tight swept box of a primitive (its particles over `[x0, x]`, grown by its radius).
+    /// The tight swept box of a primitive: its particles over `[x0, x − shift]`, grown by its
+    /// radius.
+    ///
+    /// Why the shift ([`Self::shift`]) keeps every pair: two points that come within `d` at
+    /// some time `t` of the substep, on their linear tracks `x0 + t (x − x0)`, are still within
+    /// `d` once both are moved by the same `−t·shift`, and the moved track
+    /// `x0 + t (x − shift − x0)` lies in the box of `x0` and `x − shift`. So the boxes of any
+    /// pair that can touch overlap, whatever the shift, as long as every box of the substep
+    /// (the colliders' and features' included) takes the same one. A cloth carried fast then
+    /// has boxes the size of its relative motion instead of its travel: `cloth_on_sphere`'s
+    /// 64 × 64 cloth thrown at 20 m/s has 35,218 candidates a substep instead of 258,446, and
+    /// steps 3.6 times faster with the same bits. A motion that is not shared is not helped:
+    /// under a gravity of −2e9 m/s² the cloth falls 6 km in a substep except where the sphere
+    /// stops it, and one substep still takes over a minute.
     #[inline]
     fn vert_box(&self, i: usize, x0: &[DVec3], x: &[DVec3]) -> Aabb {
         let p = self.verts[i] as usize;
-        Aabb::of_points(&[x0[p], x[p]], self.radius(self.vert_obj[i]))
+        let s = self.shift;
+        Aabb::of_points(&[x0[p], x[p] - s], self.radius(self.vert_obj[i]))
     }
 
     #[inline]
     fn edge_box(&self, i: usize, x0: &[DVec3], x: &[DVec3]) -> Aabb {
         let [a, b] = self.edges[i];
         let (a, b) = (a as usize, b as usize);
-        Aabb::of_points(&[x0[a], x0[b], x[a], x[b]], self.radius(self.edge_obj[i]))
+        let s = self.shift;
+        Aabb::of_points(
+            &[x0[a], x0[b], x[a] - s, x[b] - s],
+            self.radius(self.edge_obj[i]),
+        )
     }
 
     #[inline]
     fn face_box(&self, i: usize, x0: &[DVec3], x: &[DVec3]) -> Aabb {
         let [a, b, c] = self.faces[i];
         let (a, b, c) = (a as usize, b as usize, c as usize);
+        let s = self.shift;
         Aabb::of_points(
-            &[x0[a], x0[b], x0[c], x[a], x[b], x[c]],
+            &[x0[a], x0[b], x0[c], x[a] - s, x[b] - s, x[c] - s],
             self.radius(self.face_obj[i]),
         )
+    }
+
+    /// The mean displacement of the group's dynamic vertices from `x0` to `x` (zero if none
+    /// moves or it is not finite): the substep's [`Self::shift`].
+    fn shared_displacement(&self, x0: &[DVec3], x: &[DVec3], inv_mass: &[f64]) -> DVec3 {
+        let (mut sum, mut n) = (DVec3::ZERO, 0usize);
+        for &p in &self.verts {
+            let p = p as usize;
+            if inv_mass[p] > 0.0 {
+                sum += x[p] - x0[p];
+                n += 1;
+            }
+        }
+        let mean = sum / n.max(1) as f64;
+        if mean.is_finite() {
+            mean
+        } else {
+            DVec3::ZERO
+        }
     }
 
     /// Whether a pair of objects (local) may collide at all: one object with itself if its
@@ -1593,6 +1647,33 @@ impl CollisionGroup {
         }
     }
 
+    /// Poses the colliders at both ends of the substep `[time, time + h]`: their poses, the
+    /// features' tracks and swept boxes, and the colliders' boxes (all with the substep's
+    /// [`Self::shift`]).
+    fn pose_colliders(&mut self, time: f64, h: f64) {
+        for (c, col) in self.colliders.iter().enumerate() {
+            self.pose0[c] = col.motion.pose(time);
+            self.pose1[c] = col.motion.pose(time + h);
+        }
+        for (f, &(c, q)) in self.feat_points.iter().enumerate() {
+            let ends = [
+                self.pose0[c as usize].apply(q),
+                self.pose1[c as usize].apply(q),
+            ];
+            self.feat_point_tracks[f] = ends;
+            self.feat_point_boxes[f] = Aabb::of_points(&[ends[0], ends[1] - self.shift], 0.0);
+        }
+        for (f, &(c, [a, b])) in self.feat_edges.iter().enumerate() {
+            let (p0, p1) = (self.pose0[c as usize], self.pose1[c as usize]);
+            let ends = [p0.apply(a), p0.apply(b), p1.apply(a), p1.apply(b)];
+            self.feat_edge_tracks[f] = ends;
+            let s = self.shift;
+            self.feat_edge_boxes[f] =
+                Aabb::of_points(&[ends[0], ends[1], ends[2] - s, ends[3] - s], 0.0);
+        }
+        self.collider_bounds();
+    }
+
     /// World boxes of the colliders over the substep (their rest-frame bounds, grown by
     /// every thickness in play, at both poses; a rotating shape is bounded by its bounding
     /// sphere about its pivot-independent centre).
@@ -1613,11 +1694,11 @@ impl CollisionGroup {
             }
             let center = 0.5 * (lo + hi);
             let r = 0.5 * (hi - lo).length();
-            let mut b = Aabb::EMPTY;
-            for pose in [self.pose0[c], self.pose1[c]] {
-                b = b.union(Aabb::of_points(&[pose.apply(center)], r));
-            }
-            self.collider_boxes[c] = b;
+            let ends = [
+                self.pose0[c].apply(center),
+                self.pose1[c].apply(center) - self.shift,
+            ];
+            self.collider_boxes[c] = Aabb::of_points(&ends, r);
         }
     }
 
@@ -2331,25 +2412,11 @@ impl ConstraintGroup for CollisionGroup {
         let n = self.x_pred.len();
         self.x_pred.copy_from_slice(&p.x[..n]);
         self.h = h;
-        for (c, col) in self.colliders.iter().enumerate() {
-            self.pose0[c] = col.motion.pose(time);
-            self.pose1[c] = col.motion.pose(time + h);
+        let mean = self.shared_displacement(p.x0, p.x, p.inv_mass);
+        if (mean - self.shift).length() > self.shift_tolerance {
+            self.shift = mean;
         }
-        for (f, &(c, q)) in self.feat_points.iter().enumerate() {
-            let ends = [
-                self.pose0[c as usize].apply(q),
-                self.pose1[c as usize].apply(q),
-            ];
-            self.feat_point_tracks[f] = ends;
-            self.feat_point_boxes[f] = Aabb::of_points(&ends, 0.0);
-        }
-        for (f, &(c, [a, b])) in self.feat_edges.iter().enumerate() {
-            let (p0, p1) = (self.pose0[c as usize], self.pose1[c as usize]);
-            let ends = [p0.apply(a), p0.apply(b), p1.apply(a), p1.apply(b)];
-            self.feat_edge_tracks[f] = ends;
-            self.feat_edge_boxes[f] = Aabb::of_points(&ends, 0.0);
-        }
-        self.collider_bounds();
+        self.pose_colliders(time, h);
         for &i in &self.frozen_list {
             self.carrier[i as usize] = NONE;
         }
@@ -2522,15 +2589,9 @@ mod tests {
         let make = || CollisionGroup::new(&params, &scene).expect("group");
         let mut pair = [make(), make()];
         for g in &mut pair {
-            g.collider_bounds();
+            g.pose_colliders(0.0, 0.0);
             let features = (g.feat_points.len(), g.feat_edges.len());
             assert!(features.0 > 0 && features.1 > 0, "the box has features");
-            for (f, &(_, q)) in g.feat_points.clone().iter().enumerate() {
-                g.feat_point_boxes[f] = Aabb::of_points(&[q], 0.0);
-            }
-            for (f, &(_, [a, b])) in g.feat_edges.clone().iter().enumerate() {
-                g.feat_edge_boxes[f] = Aabb::of_points(&[a, b], 0.0);
-            }
         }
         pair
     }
@@ -2624,6 +2685,58 @@ mod tests {
                 "no {kind:?} pair: the test would not test it"
             );
         }
+    }
+
+    /// With every box of a substep shifted by the displacement its vertices share
+    /// ([`CollisionGroup::shift`]), the broad phase still pairs every pair that comes within
+    /// reach over the substep — every pair in which the narrow phase's continuous test finds
+    /// a contact — over rounds of random crumpling carried by a common motion of up to 20 cm
+    /// (ten times the contact distance), each a new substep with its own shift. The shifted
+    /// lists are shorter than the unshifted ones (else the test would not test the shift).
+    #[test]
+    fn a_shifted_broad_phase_keeps_every_pair_that_comes_within_reach() {
+        let (rest, edges, tris) = cloth(14);
+        let [mut shifted, mut plain] = groups(&rest, &edges, &tris);
+        let inv_mass = vec![1.0; rest.len()];
+        let mut x0: Vec<DVec3> = rest.iter().map(|&p| DVec3::from(p)).collect();
+        let mut rng = Rng(5);
+        let team = TeamRef::serial();
+        let (mut checked, mut fewer) = (0, 0);
+        for round in 0..40 {
+            let common = rng.vec3(0.2);
+            let x: Vec<DVec3> = x0
+                .iter()
+                .map(|&p| {
+                    let own = if rng.next_f64() < 0.3 {
+                        rng.vec3(0.02)
+                    } else {
+                        DVec3::ZERO
+                    };
+                    p + common + own
+                })
+                .collect();
+            // A substep long enough that no push-out limit applies.
+            for g in [&mut shifted, &mut plain] {
+                g.h = 1e3;
+            }
+            shifted.shift = shifted.shared_displacement(&x0, &x, &inv_mass);
+            shifted.pose_colliders(0.0, 0.0);
+            shifted.broad_phase(&x0, &x, &inv_mass, team);
+            plain.broad_phase(&x0, &x, &inv_mass, team);
+            for (c, d) in plain.candidates.iter().zip(&plain.reach) {
+                if plain.detect(*c, *d, &x0, &x, 1.0, None).is_none() {
+                    continue;
+                }
+                checked += 1;
+                let at = shifted.candidates.binary_search(c);
+                let at = at.unwrap_or_else(|_| panic!("round {round}: {c:?} missing"));
+                assert_eq!(shifted.reach[at].to_bits(), d.to_bits());
+            }
+            fewer += usize::from(shifted.candidates.len() < plain.candidates.len());
+            x0 = x;
+        }
+        assert!(checked > 100, "only {checked} pairs came within reach");
+        assert!(fewer > 30, "the shift made {fewer} of 40 lists shorter");
     }
 
     /// A refresh within a substep keeps the separations of the pairs it keeps, with the motion

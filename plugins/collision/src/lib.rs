@@ -62,8 +62,10 @@
 //! ## Broad phase ([`bvh`])
 //!
 //! Axis-aligned bounding box trees over the swept edges and faces — each primitive's box
-//! covers its particles at `x0` and `x`, grown by its thickness and a margin
-//! (`0.3 r + 0.1 mm`) — built once over the rest shape and **refit** every substep, and a
+//! covers its particles at `x0` and `x − s`, grown by its thickness and a margin
+//! (`0.3 r + 0.1 mm`), with `s` the displacement the group's vertices share (every box of the
+//! substep takes the same `s`, which keeps every pair that can touch; a slow group keeps
+//! `s = 0`) — built once over the rest shape and **refit** every substep, and a
 //! spatial hash grid over the unconnected particles. The candidate pairs are collected once
 //! per substep (`begin_substep`), in sorted order: deterministic. The vertex–face and
 //! edge–edge queries (one per vertex, one per edge) are split over the host's thread team in
