@@ -91,6 +91,12 @@ pub struct CollisionGroup {
     push_out_speed: f64,
     /// Settings of each target object (group-local object index).
     settings: Vec<ObjectSettings>,
+    /// Name of each target object, for errors.
+    names: Vec<String>,
+    /// The most candidate pairs the group holds ([`candidate_budget`]); more is an error.
+    candidate_budget: usize,
+    /// The largest candidate list refused since the last check (0: none).
+    over_budget: usize,
     /// Excluded pairs of group-local objects (sorted).
     excluded: Vec<[u32; 2]>,
     /// Rest positions (m), for the rest-distance filter of self-collision.
@@ -296,6 +302,24 @@ pub(crate) fn push_out_reach(reach: f64, start: f64, push: f64) -> f64 {
     reach.min(start + push)
 }
 
+/// The least [`candidate_budget`]: about 100 MB of candidate state.
+const MIN_CANDIDATE_BUDGET: usize = 1 << 20;
+
+/// The most candidate pairs a group may hold at once: 64 per primitive, or 8 per same-object
+/// pair closer than its contact distance at rest (a thick cloth has hundreds of those per
+/// vertex), at least [`MIN_CANDIDATE_BUDGET`]. The shipped scenes peak at about 8 per
+/// primitive (`cloth_heap`, 203,962 for 24,448 primitives); a dense crumple stacks a few layers
+/// within reach, and fast relative motion a few times more. Beyond the budget the substep
+/// fails with an error naming the fastest object ([`CollisionGroup::over_budget_error`]) instead
+/// of holding every pair: a gravity of −2e9 m/s² on `cloth_on_sphere` (6 km a substep except
+/// where the sphere stops the cloth) made 54 million candidates, several gigabytes, and 76 s
+/// a substep.
+fn candidate_budget(primitives: usize, rest_pairs: usize) -> usize {
+    (64 * primitives)
+        .max(8 * rest_pairs)
+        .max(MIN_CANDIDATE_BUDGET)
+}
+
 /// Sorts the hits of one query (those from `from` on) by their second primitive.
 fn sort_by_second(pending: &mut [(Candidate, f64)], from: usize) {
     pending[from..].sort_unstable_by_key(|c| c.0.pair[1]);
@@ -381,6 +405,9 @@ impl CollisionGroup {
             mu_dynamic: params.friction_dynamic,
             push_out_speed: params.push_out_speed,
             settings,
+            names: names.iter().map(|n| n.to_string()).collect(),
+            candidate_budget: usize::MAX,
+            over_budget: 0,
             excluded,
             rest,
             verts: Vec::new(),
@@ -637,6 +664,10 @@ impl CollisionGroup {
         }
         g.near_vertex_face = g.near_vertex_face_pairs();
         g.near_edge_edge = g.near_edge_edge_pairs();
+        g.candidate_budget = candidate_budget(
+            g.verts.len() + g.edges.len() + g.faces.len(),
+            g.near_vertex_face.other.len() + g.near_edge_edge.other.len(),
+        );
         g.iso_boxes = vec![Aabb::EMPTY; g.isolated.len()];
         g.collider_boxes = vec![Aabb::EMPTY; g.colliders.len()];
         g.pose0 = vec![Pose::IDENTITY; g.colliders.len()];
@@ -1134,7 +1165,12 @@ impl CollisionGroup {
     /// Makes `pending` (sorted) the candidates, with their particles, and restarts the passes'
     /// state; keeps both buffers for the next broad phase. Within a substep, the candidates
     /// found again keep their separations ([`Self::carry_separations`]).
-    fn adopt(&mut self, pending: Vec<(Candidate, f64)>, stack: Vec<u32>, x: &[DVec3]) {
+    fn adopt(&mut self, mut pending: Vec<(Candidate, f64)>, stack: Vec<u32>, x: &[DVec3]) {
+        if pending.len() > self.candidate_budget {
+            // The substep fails (`over_budget_error`); the list and its memory are dropped.
+            self.over_budget = self.over_budget.max(pending.len());
+            pending = Vec::new();
+        }
         debug_assert!(
             pending.windows(2).all(|w| w[0].0 < w[1].0),
             "candidates out of order"
@@ -2284,6 +2320,38 @@ impl CollisionGroup {
         }
     }
 
+    /// The error of a substep whose candidates went over [`Self::candidate_budget`], if one
+    /// did (and clears it): it names the object of the vertex that moved farthest over the
+    /// substep, and how far.
+    fn over_budget_error(&mut self, x0: &[DVec3], x: &[DVec3]) -> Result<(), PluginError> {
+        let found = std::mem::take(&mut self.over_budget);
+        if found == 0 {
+            return Ok(());
+        }
+        let (mut far, mut who) = (0.0f64, 0usize);
+        for (i, &p) in self.verts.iter().enumerate() {
+            let d = x[p as usize].distance(x0[p as usize]);
+            if d > far || d.is_nan() {
+                (far, who) = (d, i);
+            }
+        }
+        let name = self
+            .names
+            .get(self.vert_obj.get(who).copied().unwrap_or(0) as usize);
+        let message = format!(
+            "{found} candidate pairs in one substep, over the group's budget of {} (64 per \
+             primitive, 8 per pair in contact at rest, at least {MIN_CANDIDATE_BUDGET}): its \
+             primitives move too far against each other in a substep (a vertex of this object \
+             moved {far:.3e} m in {:.3e} s); use more substeps, or check the gravity, the \
+             velocities and the colliders' motion",
+            self.candidate_budget, self.h
+        );
+        Err(match name {
+            Some(n) => PluginError::bad_object(n.as_str(), message),
+            None => PluginError::failed(message),
+        })
+    }
+
     fn check_state(&self, len: usize) -> Result<(), PluginError> {
         if len < self.x_pred.len() {
             return Err(PluginError::failed(format!(
@@ -2430,7 +2498,7 @@ impl ConstraintGroup for CollisionGroup {
             self.restart_passes(p.x);
         }
         self.within_substep = true;
-        Ok(())
+        self.over_budget_error(p.x0, p.x)
     }
 
     /// One pass of detection and resolution; the last pass of the substep also applies
@@ -2459,7 +2527,7 @@ impl ConstraintGroup for CollisionGroup {
             self.stats.unresolved += unresolved;
             self.stats.contacts = self.stats.contacts.max(self.contacts.len());
         }
-        Ok(())
+        self.over_budget_error(x0, x)
     }
 
     /// Restitution: contacts that worked this substep and were approaching faster than
