@@ -664,10 +664,13 @@ impl CollisionGroup {
         }
         g.near_vertex_face = g.near_vertex_face_pairs();
         g.near_edge_edge = g.near_edge_edge_pairs();
-        g.candidate_budget = candidate_budget(
-            g.verts.len() + g.edges.len() + g.faces.len(),
-            g.near_vertex_face.other.len() + g.near_edge_edge.other.len(),
-        );
+        g.candidate_budget = match params.max_candidates {
+            0 => candidate_budget(
+                g.verts.len() + g.edges.len() + g.faces.len(),
+                g.near_vertex_face.other.len() + g.near_edge_edge.other.len(),
+            ),
+            n => usize::try_from(n).unwrap_or(usize::MAX),
+        };
         g.iso_boxes = vec![Aabb::EMPTY; g.isolated.len()];
         g.collider_boxes = vec![Aabb::EMPTY; g.colliders.len()];
         g.pose0 = vec![Pose::IDENTITY; g.colliders.len()];
@@ -2339,11 +2342,11 @@ impl CollisionGroup {
             .names
             .get(self.vert_obj.get(who).copied().unwrap_or(0) as usize);
         let message = format!(
-            "{found} candidate pairs in one substep, over the group's budget of {} (64 per \
-             primitive, 8 per pair in contact at rest, at least {MIN_CANDIDATE_BUDGET}): its \
-             primitives move too far against each other in a substep (a vertex of this object \
-             moved {far:.3e} m in {:.3e} s); use more substeps, or check the gravity, the \
-             velocities and the colliders' motion",
+            "{found} candidate pairs in one substep, over the group's budget of {} (parameter \
+             max_candidates; automatic: 64 per primitive, 8 per pair in contact at rest, at \
+             least {MIN_CANDIDATE_BUDGET}): its primitives move too far against each other in a \
+             substep (a vertex of this object moved {far:.3e} m in {:.3e} s); use more \
+             substeps, or check the gravity, the velocities and the colliders' motion",
             self.candidate_budget, self.h
         );
         Err(match name {

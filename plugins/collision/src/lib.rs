@@ -184,9 +184,9 @@
 //!
 //! ## Candidate budget
 //!
-//! A group holds at most `group::candidate_budget` candidate pairs: 64 per primitive, or 8
-//! per same-object pair within reach at rest, at least 2²⁰ (the shipped scenes peak at about
-//! 8 per primitive). Beyond it, the substep fails with an error naming the object whose vertex
+//! A group holds at most `max_candidates` candidate pairs (automatic by default,
+//! `group::candidate_budget`: 64 per primitive, or 8 per same-object pair within reach at
+//! rest, at least 2²⁰; the shipped scenes peak at about 8 per primitive). Beyond it, the substep fails with an error naming the object whose vertex
 //! moved farthest and how far, instead of holding tens of millions of pairs for minutes (a
 //! gravity of −2e9 m/s² on `cloth_on_sphere`: 54 million, 76 s a substep).
 //!

@@ -48,6 +48,10 @@ pub struct CollisionParams {
     /// `maxDepenetrationVelocity`, Maya's push-out). Primitives that start outside are
     /// unaffected. Default 1 m/s.
     pub push_out_speed: f64,
+    /// The most candidate pairs the group may hold in a substep before the substep fails with
+    /// an error (0: automatic, 64 per primitive or 8 per pair within reach at rest, at least
+    /// 2²⁰). Default 0.
+    pub max_candidates: u64,
     /// Collision layers (a bitmask, bit `k` = layer `k`) of every target object and
     /// collider unless overridden (`objects_settings`, a collider's `layers`). Two objects,
     /// or an object and a collider, collide only if their masks share a bit. Default 1.
@@ -66,6 +70,7 @@ impl Default for CollisionParams {
             colliders: Value::Array(Vec::new()),
             exclude: Value::Array(Vec::new()),
             push_out_speed: DEFAULT_PUSH_OUT_SPEED,
+            max_candidates: 0,
             layers: DEFAULT_LAYERS,
         }
     }
@@ -175,6 +180,10 @@ impl CollisionParams {
                 .doc("depenetration speed limit: a vertex, edge or face that starts a substep deeper inside an analytic collider than its thickness (a cloth placed through a collider) is moved out by at most this speed times the substep, so its neighbours follow without tearing; primitives outside are unaffected (PhysX's maxDepenetrationVelocity, Maya's push-out)")
                 .unit("m/s")
                 .range(1e-6, 1e6),
+            ParamSpec::integer("max_candidates", d.max_candidates as i64)
+                .doc("the most candidate pairs the group may hold in a substep; more fails the substep with an error naming the object that moves too far (a typo in gravity or a velocity); 0 = automatic: 64 per collision primitive or 8 per pair within reach at rest, at least 2^20")
+                .unit("pairs")
+                .range(0.0, 1e12),
             ParamSpec::integer("layers", i64::from(d.layers))
                 .doc("collision layers of every target object and collider, as a bitmask (bit k = layer k; 1 = layer 0, 6 = layers 1 and 2); two objects, or an object and a collider, collide only if their masks share a bit; per object: objects_settings, per collider: its own layers; 0 collides with nothing (an object's self_collision still applies)")
                 .unit("bitmask")

@@ -496,8 +496,8 @@ fn a_particle_started_inside_a_collider_leaves_it_at_the_push_out_speed() {
 }
 
 /// A 16 × 16 self-colliding cloth of side 0.5 m in the plane y = 0, moving at `velocity`
-/// without gravity, 10 substeps a frame, with the colliders `colliders` (TOML list items).
-fn moving_cloth(velocity: [f64; 3], colliders: &str) -> Simulation {
+/// without gravity, 10 substeps a frame, with more collision parameters `params` (TOML).
+fn moving_cloth(velocity: [f64; 3], params: &str) -> Simulation {
     let [vx, vy, vz] = velocity;
     let scene = format!(
         r#"
@@ -518,7 +518,7 @@ origin = [-0.25, 0.0, -0.25]
 kind = "stretch"
 [[constraints]]
 kind = "collision"
-params = {{ thickness = 0.004, colliders = [{colliders}] }}
+params = {{ thickness = 0.004, {params} }}
 "#
     );
     simulation(&scene).unwrap()
@@ -531,7 +531,7 @@ fn a_cloth_moving_as_a_whole_has_the_candidates_of_a_cloth_at_rest() {
     // `cloth_on_sphere` thrown at 20 m/s had 258,446 candidates a substep against 35,218
     // (and 441–473 against 125–128 ms a frame on 2 threads, the same bits).
     let candidates = |v: [f64; 3]| {
-        let mut sim = moving_cloth(v, "");
+        let mut sim = moving_cloth(v, "layers = 1");
         sim.step_frame().unwrap();
         report(&mut sim, "candidates")
     };
@@ -550,7 +550,7 @@ fn a_cloth_moving_as_a_whole_has_the_candidates_of_a_cloth_at_rest() {
 fn a_fast_cloth_thrown_at_a_sphere_is_caught_by_it() {
     // Thrown at 20 m/s (3.3 cm a substep, eight times its thickness) at a sphere 0.5 m
     // ahead: the shifted boxes still pair every vertex that reaches the sphere with it.
-    let sphere = r#"{ type = "sphere", center = [0.6, 0.0, 0.0], radius = 0.15 }"#;
+    let sphere = r#"colliders = [{ type = "sphere", center = [0.6, 0.0, 0.0], radius = 0.15 }]"#;
     let mut sim = moving_cloth([20.0, 0.0, 0.0], sphere);
     let centre = DVec3::new(0.6, 0.0, 0.0);
     for frame in 1..=6 {
@@ -575,4 +575,21 @@ fn a_fast_cloth_thrown_at_a_sphere_is_caught_by_it() {
         most_x < 1.0,
         "the cloth went past the sphere (x up to {most_x})"
     );
+}
+
+#[test]
+fn more_candidates_than_max_candidates_fail_the_substep_naming_the_object() {
+    // The 16 × 16 cloth at rest holds 1,906 candidates (the test above).
+    let mut sim = moving_cloth([0.0; 3], "max_candidates = 1000");
+    let err = sim.step_frame().expect_err("over the budget").to_string();
+    for part in [
+        "`cloth`",
+        "1906 candidate pairs",
+        "budget of 1000",
+        "max_candidates",
+    ] {
+        assert!(err.contains(part), "`{part}` missing from: {err}");
+    }
+    let mut sim = moving_cloth([0.0; 3], "max_candidates = 1906");
+    sim.step_frame().expect("at the budget");
 }
