@@ -135,6 +135,12 @@ struct KeySpec {
     rotate: [f64; 3],
 }
 
+/// The largest coordinate or size (m) a collider may have: a 1,000 km sphere is still
+/// accepted, while a radius of 1e308 (a scene fuzz mutant) overflowed the contact maths to
+/// infinity, sent the cloth there, and made tens of millions of pairs before the substep
+/// failed.
+pub const MAX_COLLIDER_EXTENT: f64 = 1e6;
+
 fn finite3(v: &[f64; 3]) -> bool {
     v.iter().all(|c| c.is_finite())
 }
@@ -334,15 +340,29 @@ impl CollisionParams {
 fn parse_collider(i: usize, v: &Value, default_layers: u32) -> Result<Collider, PluginError> {
     let bad = |m: String| PluginError::bad_parameter("colliders", format!("colliders[{i}]: {m}"));
     let s: ColliderSpec = serde_json::from_value(v.clone()).map_err(|e| bad(e.to_string()))?;
+    let too_far = |name: &str, v: f64| {
+        bad(format!(
+            "`{name}` has {v:e} m; a collider's coordinates and sizes must be within \
+             {MAX_COLLIDER_EXTENT:e} m"
+        ))
+    };
+    // Positions and sizes (not the plane's normal, a direction).
     let vec3 = |name: &str, v: Option<[f64; 3]>| -> Result<DVec3, PluginError> {
         match v {
-            Some(v) if finite3(&v) => Ok(DVec3::from_array(v)),
+            Some(v) if finite3(&v) => {
+                let big = v.iter().fold(0.0f64, |m, c| m.max(c.abs()));
+                if name != "normal" && big > MAX_COLLIDER_EXTENT {
+                    return Err(too_far(name, big));
+                }
+                Ok(DVec3::from_array(v))
+            }
             Some(_) => Err(bad(format!("`{name}` must be finite"))),
             None => Err(bad(format!("a {} needs `{name}`", s.ty))),
         }
     };
     let positive = |name: &str, v: Option<f64>| -> Result<f64, PluginError> {
         match v {
+            Some(r) if r > MAX_COLLIDER_EXTENT && r.is_finite() => Err(too_far(name, r)),
             Some(r) if r.is_finite() && r > 0.0 => Ok(r),
             Some(r) => Err(bad(format!("`{name}` must be positive, found {r}"))),
             None => Err(bad(format!("a {} needs `{name}`", s.ty))),
@@ -439,7 +459,12 @@ fn parse_collider(i: usize, v: &Value, default_layers: u32) -> Result<Collider, 
         }
     };
     let pivot = match s.pivot {
-        Some(p) if finite3(&p) => DVec3::from_array(p),
+        Some(p) if finite3(&p) && p.iter().all(|c| c.abs() <= MAX_COLLIDER_EXTENT) => {
+            DVec3::from_array(p)
+        }
+        Some(p) if finite3(&p) => {
+            return Err(too_far("pivot", p[0].abs().max(p[1].abs()).max(p[2].abs())))
+        }
         Some(_) => return Err(bad("`pivot` must be finite".into())),
         None => pivot,
     };

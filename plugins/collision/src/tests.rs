@@ -258,7 +258,27 @@ fn bad_parameters_are_refused_naming_the_parameter_and_the_object_or_collider() 
         ),
         (r#"exclude = [["a", "z"]]"#, &["exclude", "`z`"]),
         ("layers = -1", &["layers"]),
+        // Sizes and positions beyond 1e6 m (a radius of 1e308 overflowed the contact maths).
+        (
+            r#"colliders = [{ type = "sphere", center = [0.0, 0.0, 0.0], radius = 1e308 }]"#,
+            &["colliders[0]", "`radius`", "1e308", "within 1e6 m"],
+        ),
+        (
+            r#"colliders = [{ type = "box", center = [0.0, -2e6, 0.0], half_extents = [1.0, 1.0, 1.0] }]"#,
+            &["colliders[0]", "`center`", "2e6"],
+        ),
+        (
+            r#"colliders = [{ type = "capsule", a = [0.0, 0.0, 0.0], b = [1.0, 0.0, 0.0], radius = 0.1, pivot = [0.0, 1e7, 0.0] }]"#,
+            &["colliders[0]", "`pivot`", "1e7"],
+        ),
     ];
+    // A plane's normal is a direction: any length is accepted, and a 1,000 km sphere is too.
+    for ok in [
+        r#"colliders = [{ type = "plane", point = [0.0, 0.0, 0.0], normal = [0.0, 1e9, 0.0] }]"#,
+        r#"colliders = [{ type = "sphere", center = [0.0, -1e6, 0.0], radius = 1e6 }]"#,
+    ] {
+        assert!(simulation(&two_particles(ok)).is_ok(), "refused {ok}");
+    }
     for (params, words) in cases {
         let err = match simulation(&two_particles(params)) {
             Ok(_) => panic!("accepted {params}"),
