@@ -308,7 +308,7 @@ const MIN_CANDIDATE_BUDGET: usize = 1 << 20;
 /// The most candidate pairs a group may hold at once: 64 per primitive, or 8 per same-object
 /// pair closer than its contact distance at rest (a thick cloth has hundreds of those per
 /// vertex), at least [`MIN_CANDIDATE_BUDGET`]. The shipped scenes peak at about 8 per
-/// primitive (`cloth_heap`, 203,962 for 24,448 primitives); a dense crumple stacks a few layers
+/// primitive (`cloth_heap`, 203,962 for 24,067 primitives); a dense crumple stacks a few layers
 /// within reach, and fast relative motion a few times more. Beyond the budget the substep
 /// fails with an error naming the fastest object ([`CollisionGroup::over_budget_error`]) instead
 /// of holding every pair: a gravity of −2e9 m/s² on `cloth_on_sphere` (6 km a substep except
