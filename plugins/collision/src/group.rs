@@ -2138,7 +2138,7 @@ impl CollisionGroup {
                 continue;
             }
             let c = self.feature_collider(*cand) as usize;
-            let (ids, w, q) = self.feature_closest(*cand, x, self.pose1[c]);
+            let (ids, w, q, _) = self.feature_closest(*cand, x, self.pose1[c]);
             let p: DVec3 = (0..3).map(|j| w[j] * x[ids[j] as usize]).sum();
             let sep = p - q;
             let dist = sep.length();
@@ -2170,35 +2170,37 @@ impl CollisionGroup {
     }
 
     /// A feature candidate's closest points, with the collider at `pose` and the particles at
-    /// `x`: the primitive's particles, their weights in its closest point, and the feature's
-    /// closest point.
+    /// `x`: the primitive's particles, their weights in its closest point, the feature's
+    /// closest point, and the squared distance between the two (as the distance query gives
+    /// it).
     fn feature_closest(
         &self,
         cand: Candidate,
         x: &[DVec3],
         pose: Pose,
-    ) -> ([u32; 3], [f64; 3], DVec3) {
+    ) -> ([u32; 3], [f64; 3], DVec3, f64) {
         let (a, b) = (cand.pair[0] as usize, cand.pair[1] as usize);
         match cand.kind {
             PairKind::FeatureFace => {
                 let t = self.faces[b];
                 let p = pose.apply(self.feat_points[a].1);
                 let at = |i: u32| x[i as usize];
-                let (bary, _) = distance::point_triangle_closest(p, at(t[0]), at(t[1]), at(t[2]));
-                (t, bary, p)
+                let (bary, d2) = distance::point_triangle_closest(p, at(t[0]), at(t[1]), at(t[2]));
+                (t, bary, p, d2)
             }
             PairKind::FeaturePointEdge => {
                 let e = self.edges[b];
                 let p = pose.apply(self.feat_points[a].1);
-                let (u, _) = distance::point_segment_closest(p, x[e[0] as usize], x[e[1] as usize]);
-                ([e[0], e[1], e[1]], [1.0 - u, u, 0.0], p)
+                let (u, d2) =
+                    distance::point_segment_closest(p, x[e[0] as usize], x[e[1] as usize]);
+                ([e[0], e[1], e[1]], [1.0 - u, u, 0.0], p, d2)
             }
             _ => {
                 let e = self.edges[b];
                 let [f0, f1] = self.feat_edges[a].1.map(|v| pose.apply(v));
-                let (s, u, _) =
+                let (s, u, d2) =
                     distance::segment_segment_closest(f0, f1, x[e[0] as usize], x[e[1] as usize]);
-                ([e[0], e[1], e[1]], [1.0 - u, u, 0.0], f0.lerp(f1, s))
+                ([e[0], e[1], e[1]], [1.0 - u, u, 0.0], f0.lerp(f1, s), d2)
             }
         }
     }
@@ -2206,9 +2208,7 @@ impl CollisionGroup {
     /// The distance (m) between a feature candidate's feature, with the collider at `pose`,
     /// and its primitive at `x`.
     fn feature_distance(&self, cand: Candidate, x: &[DVec3], pose: Pose) -> f64 {
-        let (ids, w, q) = self.feature_closest(cand, x, pose);
-        let p: DVec3 = (0..3).map(|j| w[j] * x[ids[j] as usize]).sum();
-        (p - q).length()
+        self.feature_closest(cand, x, pose).3.sqrt()
     }
 
     /// How far (m) a primitive that starts the substep inside a collider may leave it by in
@@ -2377,39 +2377,22 @@ impl CollisionGroup {
                 worst = worst.max(c.offset - d2.sqrt());
             }
         }
-        let at = |i: u32| x[i as usize];
         for (k, cand) in self.candidates.iter().enumerate() {
             let (a, b) = (cand.pair[0] as usize, cand.pair[1] as usize);
-            let d2 = match cand.kind {
+            let dist = match cand.kind {
                 PairKind::Collider => {
                     let p = self.verts[b] as usize;
                     let col = &self.colliders[a];
                     let (phi, _) = col.shape.signed_distance(poses[a].inverse_apply(x[p]));
-                    worst = worst.max(self.reach[k] - phi);
-                    continue;
+                    phi
                 }
-                PairKind::FeatureFace => {
-                    let (c, q) = self.feat_points[a];
-                    let t = self.faces[b];
-                    let p = poses[c as usize].apply(q);
-                    distance::point_triangle_closest(p, at(t[0]), at(t[1]), at(t[2])).1
-                }
-                PairKind::FeaturePointEdge => {
-                    let (c, q) = self.feat_points[a];
-                    let e = self.edges[b];
-                    let p = poses[c as usize].apply(q);
-                    distance::point_segment_closest(p, at(e[0]), at(e[1])).1
-                }
-                PairKind::FeatureEdgeEdge => {
-                    let (c, [q0, q1]) = self.feat_edges[a];
-                    let e = self.edges[b];
-                    let pose = poses[c as usize];
-                    let (p0, p1) = (pose.apply(q0), pose.apply(q1));
-                    distance::segment_segment_closest(p0, p1, at(e[0]), at(e[1])).2
+                kind if kind.is_feature() => {
+                    let c = self.feature_collider(*cand) as usize;
+                    self.feature_distance(*cand, x, poses[c])
                 }
                 _ => continue,
             };
-            worst = worst.max(self.reach[k] - d2.sqrt());
+            worst = worst.max(self.reach[k] - dist);
         }
         worst
     }
