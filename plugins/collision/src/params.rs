@@ -346,18 +346,20 @@ fn parse_collider(i: usize, v: &Value, default_layers: u32) -> Result<Collider, 
              {MAX_COLLIDER_EXTENT:e} m"
         ))
     };
-    // Positions and sizes (not the plane's normal, a direction).
-    let vec3 = |name: &str, v: Option<[f64; 3]>| -> Result<DVec3, PluginError> {
+    // A direction (the plane's normal): any finite length.
+    let direction = |name: &str, v: Option<[f64; 3]>| -> Result<DVec3, PluginError> {
         match v {
-            Some(v) if finite3(&v) => {
-                let big = v.iter().fold(0.0f64, |m, c| m.max(c.abs()));
-                if name != "normal" && big > MAX_COLLIDER_EXTENT {
-                    return Err(too_far(name, big));
-                }
-                Ok(DVec3::from_array(v))
-            }
+            Some(v) if finite3(&v) => Ok(DVec3::from_array(v)),
             Some(_) => Err(bad(format!("`{name}` must be finite"))),
             None => Err(bad(format!("a {} needs `{name}`", s.ty))),
+        }
+    };
+    // A position or a size: within the extent.
+    let vec3 = |name: &str, v: Option<[f64; 3]>| -> Result<DVec3, PluginError> {
+        let v = direction(name, v)?;
+        match v.abs().max_element() {
+            big if big > MAX_COLLIDER_EXTENT => Err(too_far(name, big)),
+            _ => Ok(v),
         }
     };
     let positive = |name: &str, v: Option<f64>| -> Result<f64, PluginError> {
@@ -387,7 +389,7 @@ fn parse_collider(i: usize, v: &Value, default_layers: u32) -> Result<Collider, 
                 ("b", s.b.is_some()),
             ])?;
             let point = vec3("point", s.point)?;
-            let normal = vec3("normal", s.normal)?;
+            let normal = direction("normal", s.normal)?;
             if normal.length() < 1e-12 {
                 return Err(bad("`normal` must not be zero".into()));
             }
@@ -459,13 +461,7 @@ fn parse_collider(i: usize, v: &Value, default_layers: u32) -> Result<Collider, 
         }
     };
     let pivot = match s.pivot {
-        Some(p) if finite3(&p) && p.iter().all(|c| c.abs() <= MAX_COLLIDER_EXTENT) => {
-            DVec3::from_array(p)
-        }
-        Some(p) if finite3(&p) => {
-            return Err(too_far("pivot", p[0].abs().max(p[1].abs()).max(p[2].abs())))
-        }
-        Some(_) => return Err(bad("`pivot` must be finite".into())),
+        Some(p) => vec3("pivot", Some(p))?,
         None => pivot,
     };
     let moving = s.velocity.is_some() || s.angular_velocity.is_some();
