@@ -238,12 +238,12 @@ pub struct CollisionGroup {
     /// motion the primitives share and the broad phase sees only their relative motion
     /// ([`Self::vert_box`]). It is the mean displacement of the group's dynamic vertices over
     /// the substep (from the prediction), updated only when that departs from it by more than
-    /// [`Self::shift_tolerance`]: a steady shift keeps the colliders' boxes where they were
+    /// the largest thickness plus its margin: a steady shift keeps the colliders' boxes where they were
     /// found, so the candidates can be kept, and a group that moves less than that a substep
     /// keeps a zero shift (the boxes of before the shift, bit for bit).
     shift: DVec3,
-    /// The largest thickness of the group's objects plus its margin (m).
-    shift_tolerance: f64,
+    /// The largest thickness of the group's objects (m).
+    max_thickness: f64,
     h: f64,
     stats: FrameStats,
 }
@@ -480,7 +480,7 @@ impl CollisionGroup {
             carrier: vec![NONE; n],
             frozen_list: Vec::new(),
             shift: DVec3::ZERO,
-            shift_tolerance: 0.0,
+            max_thickness: 0.0,
             h: 0.0,
             stats: FrameStats::default(),
         };
@@ -606,8 +606,7 @@ impl CollisionGroup {
             }
         }
 
-        let max_r = g.settings.iter().map(|s| s.thickness).fold(0.0, f64::max);
-        g.shift_tolerance = max_r + margin(max_r);
+        g.max_thickness = g.settings.iter().map(|s| s.thickness).fold(0.0, f64::max);
 
         // Broad-phase structures over the rest pose; refit from the first substep on.
         let radius_v = |i: usize| g.settings[g.vert_obj[i] as usize].thickness;
@@ -1717,13 +1716,8 @@ impl CollisionGroup {
     /// every thickness in play, at both poses; a rotating shape is bounded by its bounding
     /// sphere about its pivot-independent centre).
     fn collider_bounds(&mut self) {
-        let max_r = self
-            .settings
-            .iter()
-            .map(|s| s.thickness)
-            .fold(0.0, f64::max);
         for (c, col) in self.colliders.iter().enumerate() {
-            let (lo, hi) = col.shape.bounds(col.thickness + max_r);
+            let (lo, hi) = col.shape.bounds(col.thickness + self.max_thickness);
             if !lo.is_finite() || !hi.is_finite() {
                 self.collider_boxes[c] = Aabb {
                     min: DVec3::splat(f64::NEG_INFINITY),
@@ -2467,7 +2461,8 @@ impl ConstraintGroup for CollisionGroup {
         self.x_pred.copy_from_slice(&p.x[..n]);
         self.h = h;
         let mean = self.shared_displacement(p.x0, p.x, p.inv_mass);
-        if (mean - self.shift).length() > self.shift_tolerance {
+        let r = self.max_thickness;
+        if (mean - self.shift).length() > r + margin(r) {
             self.shift = mean;
         }
         self.pose_colliders(time, h);
