@@ -230,6 +230,10 @@ pub struct CollisionGroup {
     x_pred: Vec<DVec3>,
     /// Velocities before the solve (end_substep scratch).
     v_pre: Vec<DVec3>,
+    /// The push-out each particle got this substep ([`Self::record_push_outs`]), and the
+    /// particles that got one.
+    push: Vec<PushOut>,
+    pushed: Vec<u32>,
     /// Fail-safe carrier of each particle.
     carrier: Vec<u32>,
     frozen_list: Vec<u32>,
@@ -300,6 +304,79 @@ fn track(x0: &[DVec3], x: &[DVec3], i: u32) -> Track {
 #[inline]
 pub(crate) fn push_out_reach(reach: f64, start: f64, push: f64) -> f64 {
     reach.min(start + push)
+}
+
+/// The push-out a particle carries: the outward speed pushes gave it while it was inside an
+/// analytic collider, taken off when it gets out ([`CollisionGroup::drop_push_out_velocity`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct PushOut {
+    /// The direction out of the collider at the end of the last substep (unit).
+    pub normal: DVec3,
+    /// The collider's own speed along `normal` there (m/s): the particle keeps it.
+    pub collider_speed: f64,
+    /// The outward speed the pushes gave the particle so far (m/s), at most the push-out
+    /// speed (0: none).
+    pub speed: f64,
+    /// The most a push gave it in this substep (m/s).
+    given: f64,
+    /// Whether a primitive of the particle started this substep inside (it is listed), and
+    /// whether one still had to be held back by the push-out speed (it is not out yet).
+    seen: bool,
+    inside: bool,
+    /// Whether the particle is in the group's list of pushed particles.
+    listed: bool,
+}
+
+impl PushOut {
+    pub const NONE: Self = Self {
+        normal: DVec3::ZERO,
+        collider_speed: 0.0,
+        speed: 0.0,
+        given: 0.0,
+        seen: false,
+        inside: false,
+        listed: false,
+    };
+}
+
+/// The velocity a particle keeps once out of a collider whose pushes gave it `push.speed`
+/// along `push.normal` (unit), the collider's own speed along it being `push.collider_speed`
+/// (m/s): its outward speed relative to the collider loses up to `push.speed` and never goes
+/// below zero by it. The push moves the particle out without launching it (as a split impulse
+/// does), while the part of its motion the push did not cause — a throw faster than the push,
+/// the collider's own motion, any tangential motion — is kept.
+pub(crate) fn without_push_velocity(v: DVec3, push: &PushOut) -> DVec3 {
+    let outward = v.dot(push.normal) - push.collider_speed;
+    if outward > 0.0 && push.speed > 0.0 {
+        v - push.normal * outward.min(push.speed)
+    } else {
+        v
+    }
+}
+
+/// The outward speed (m/s) a push-out gave a primitive in a substep of length `h`: how far it
+/// ended out (`end`, capped at the `target` [`push_out_reach`] allowed) beyond where it started
+/// (`start`) or where the prediction alone put it (`predicted`), whichever is further out — all
+/// three its distance from the collider's surface or feature (m). A primitive carried out by
+/// its own velocity (`predicted` at or beyond `end`) got none; one at rest inside got
+/// `end − start`. Negative: none (a NaN start is never pushed: see [`push_out_reach`]).
+pub(crate) fn push_speed(start: f64, predicted: f64, end: f64, target: f64, h: f64) -> f64 {
+    (end.min(target) - start.max(predicted)) / h
+}
+
+/// Whether a distance from a collider's surface or feature (m) is short of a contact distance
+/// `reach` by more than the rounding of a projection onto it (a relative 1e-9): a primitive
+/// that starts a substep so is inside, one that starts a resting contact is not.
+pub(crate) fn short_of(distance: f64, reach: f64) -> bool {
+    distance < reach * (1.0 - 1e-9)
+}
+
+/// Whether a primitive pushed out of a collider is still inside at the end of a substep: the
+/// push-out speed held it back (its `target` [`push_out_reach`] is short of its contact
+/// distance `reach`) and it ended [`short_of`] `reach` (`end`). All three distances (m) from
+/// the collider's surface or feature.
+pub(crate) fn still_inside(end: f64, target: f64, reach: f64) -> bool {
+    target < reach && short_of(end, reach)
 }
 
 /// The least [`candidate_budget`]: about 100 MB of candidate state.
@@ -477,6 +554,8 @@ impl CollisionGroup {
             contacts: Vec::new(),
             x_pred: vec![DVec3::ZERO; n],
             v_pre: vec![DVec3::ZERO; n],
+            push: vec![PushOut::NONE; n],
+            pushed: Vec::with_capacity(n),
             carrier: vec![NONE; n],
             frozen_list: Vec::new(),
             shift: DVec3::ZERO,
@@ -2074,20 +2153,35 @@ impl CollisionGroup {
         self.ahead_exact = false;
     }
 
+    /// A vertex–collider candidate's collider, particle and contact distance (m), if it is one
+    /// and its particle is dynamic.
+    fn dynamic_collider_pair(
+        &self,
+        cand: Candidate,
+        inv_mass: &[f64],
+    ) -> Option<(usize, usize, f64)> {
+        if cand.kind != PairKind::Collider {
+            return None;
+        }
+        let (c, v) = (cand.pair[0] as usize, cand.pair[1] as usize);
+        let p = self.verts[v] as usize;
+        (inv_mass[p] != 0.0).then(|| {
+            (
+                c,
+                p,
+                self.radius(self.vert_obj[v]) + self.colliders[c].thickness,
+            )
+        })
+    }
+
     /// Pushes every vertex out of the analytic colliders (exact signed-distance projection at
     /// the end of the substep).
     fn project_out_of_colliders(&self, x0: &[DVec3], x: &mut [DVec3], inv_mass: &[f64]) {
         for cand in &self.candidates {
-            if cand.kind != PairKind::Collider {
+            let Some((c, p, r)) = self.dynamic_collider_pair(*cand, inv_mass) else {
                 continue;
-            }
-            let (c, v) = (cand.pair[0] as usize, cand.pair[1] as usize);
-            let p = self.verts[v] as usize;
-            if inv_mass[p] == 0.0 {
-                continue;
-            }
+            };
             let col = &self.colliders[c];
-            let r = self.radius(self.vert_obj[v]) + col.thickness;
             let pose = self.pose1[c];
             let q = pose.inverse_apply(x[p]);
             let (phi, n) = col.shape.signed_distance(q);
@@ -2210,6 +2304,154 @@ impl CollisionGroup {
     #[inline]
     fn push_out(&self) -> f64 {
         self.push_out_speed * self.h
+    }
+
+    /// Follows the push-out of every particle of a primitive that started the substep closer to
+    /// an analytic collider (or its feature) than its contact distance, for
+    /// [`Self::drop_push_out_velocity`]: the outward speed a push gave it this substep
+    /// ([`push_speed`], shared among a face's or an edge's particles as the projection shares
+    /// it) adds to what it carries, up to the push-out speed; the direction out and the
+    /// collider's speed along it are those at the end of the substep. A particle is out once
+    /// none of its primitives was held back by the push-out speed ([`push_out_reach`] gave its
+    /// full contact distance); one none of whose primitives started inside is dropped.
+    fn record_push_outs(&mut self, x0: &[DVec3], x: &[DVec3], inv_mass: &[f64]) {
+        let (push, h) = (self.push_out(), self.h);
+        if h.is_nan() || h <= 0.0 {
+            return;
+        }
+        for &i in &self.pushed {
+            let p = &mut self.push[i as usize];
+            (p.given, p.seen, p.inside) = (0.0, false, false);
+        }
+        for k in 0..self.candidates.len() {
+            let cand = self.candidates[k];
+            if cand.kind == PairKind::Collider {
+                let Some((c, p, r)) = self.dynamic_collider_pair(cand, inv_mass) else {
+                    continue;
+                };
+                let col = &self.colliders[c];
+                let (pose0, pose1) = (self.pose0[c], self.pose1[c]);
+                let start = col.shape.signed_distance(pose0.inverse_apply(x0[p])).0;
+                if !short_of(start, r) {
+                    continue;
+                }
+                let q = pose1.inverse_apply(x[p]);
+                let (end, n_local) = col.shape.signed_distance(q);
+                let predicted = col
+                    .shape
+                    .signed_distance(pose1.inverse_apply(self.x_pred[p]))
+                    .0;
+                let normal = pose1.rotate(n_local);
+                let collider_speed = normal.dot(x[p] - pose0.apply(q)) / h;
+                let target = push_out_reach(r, start, push);
+                let speed = push_speed(start, predicted, end, target, h);
+                self.note_push(
+                    p,
+                    normal,
+                    collider_speed,
+                    speed,
+                    still_inside(end, target, r),
+                );
+            } else if cand.kind.is_feature() {
+                let c = self.feature_collider(cand) as usize;
+                let (pose0, pose1) = (self.pose0[c], self.pose1[c]);
+                let start = self.feature_distance(cand, x0, pose0);
+                let reach = self.reach[k];
+                if !short_of(start, reach) {
+                    continue;
+                }
+                let (ids, w, q, d2) = self.feature_closest(cand, x, pose1);
+                let p: DVec3 = (0..3).map(|j| w[j] * x[ids[j] as usize]).sum();
+                let dist = d2.sqrt();
+                if dist.is_nan() || dist <= 1e-12 || !dist.is_finite() {
+                    continue;
+                }
+                let normal = (p - q) / dist;
+                let collider_speed = normal.dot(q - pose0.apply(pose1.inverse_apply(q))) / h;
+                let predicted = self.feature_distance(cand, &self.x_pred, pose1);
+                let target = push_out_reach(reach, start, push);
+                let speed = push_speed(start, predicted, dist, target, h);
+                // The projection moves particle j by inv_mass_j w_j / Σ inv_mass w² of the
+                // closest point's move.
+                let w_total: f64 = (0..3)
+                    .map(|j| inv_mass[ids[j] as usize] * w[j] * w[j])
+                    .sum();
+                if w_total.is_nan() || w_total <= 0.0 || !w_total.is_finite() {
+                    continue;
+                }
+                for j in 0..3 {
+                    let i = ids[j] as usize;
+                    if w[j] != 0.0 && inv_mass[i] > 0.0 && (j == 0 || ids[j] != ids[j - 1]) {
+                        let share = inv_mass[i] * w[j] / w_total;
+                        self.note_push(
+                            i,
+                            normal,
+                            collider_speed,
+                            speed * share,
+                            still_inside(dist, target, reach),
+                        );
+                    }
+                }
+            }
+        }
+        let limit = self.push_out_speed;
+        let push_state = &mut self.push;
+        self.pushed.retain(|&i| {
+            let p = &mut push_state[i as usize];
+            if !p.seen {
+                *p = PushOut::NONE;
+                return false;
+            }
+            p.speed = (p.speed + p.given).min(limit);
+            true
+        });
+    }
+
+    /// Notes that a primitive of particle `i` started the substep inside a collider, was
+    /// given `speed` (m/s) by its push along `normal` (unit) there, and was still held back
+    /// (`inside`).
+    fn note_push(
+        &mut self,
+        i: usize,
+        normal: DVec3,
+        collider_speed: f64,
+        speed: f64,
+        inside: bool,
+    ) {
+        if !normal.is_finite() || !collider_speed.is_finite() {
+            return;
+        }
+        if !self.push[i].listed {
+            self.push[i].listed = true;
+            self.pushed.push(i as u32);
+        }
+        let p = &mut self.push[i];
+        p.seen = true;
+        p.inside |= inside;
+        let speed = if speed.is_finite() {
+            speed.max(0.0)
+        } else {
+            0.0
+        };
+        if speed >= p.given {
+            (p.given, p.normal, p.collider_speed) = (speed, normal, collider_speed);
+        }
+    }
+
+    /// Takes the speed the push-out gave off the velocity of every particle that got out this
+    /// substep ([`without_push_velocity`]): a cloth placed through a collider leaves it at
+    /// `push_out_speed` and stops at its surface, instead of flying on at that speed.
+    fn drop_push_out_velocity(&mut self, v: &mut [DVec3]) {
+        let push_state = &mut self.push;
+        self.pushed.retain(|&i| {
+            let i = i as usize;
+            if push_state[i].inside {
+                return true;
+            }
+            v[i] = without_push_velocity(v[i], &push_state[i]);
+            push_state[i] = PushOut::NONE;
+            false
+        });
     }
 
     /// Where the fail-safe puts a frozen particle: its start, carried by the rigid motion of
@@ -2505,6 +2747,7 @@ impl ConstraintGroup for CollisionGroup {
             self.project_features_out(x0, x, w);
             self.project_out_of_colliders(x0, x, w);
             let unresolved = self.fail_safe(x0, x, w, team);
+            self.record_push_outs(x0, x, w);
             self.stats.unresolved += unresolved;
             self.stats.contacts = self.stats.contacts.max(self.contacts.len());
         }
@@ -2520,6 +2763,7 @@ impl ConstraintGroup for CollisionGroup {
         self.check_state(p.x.len().min(p.x0.len()).min(p.inv_mass.len()))?;
         let pen = self.penetration(p.x, &self.pose1);
         self.stats.max_penetration = self.stats.max_penetration.max(pen);
+        self.drop_push_out_velocity(p.v);
         if self.restitution <= 0.0 || self.contacts.is_empty() || h <= 0.0 {
             return Ok(());
         }
@@ -2682,6 +2926,43 @@ mod tests {
     /// rounds of random crumpling in which a few or most vertices move. (A full broad phase
     /// also lists pairs within a fresh margin of each other; the refresh keeps the older
     /// boxes of the primitives that stayed in theirs, and lists the pairs within those.)
+    #[test]
+    fn a_push_gives_only_the_speed_beyond_the_start_and_the_prediction() {
+        let h = 0.25;
+        // At rest inside: the push moves it 0.1 m out in the substep.
+        assert!((push_speed(-0.3, -0.3, -0.2, -0.2, h) - 0.4).abs() < 1e-12);
+        // Falling in (predicted deeper than the start): the contact takes the fall, the
+        // push gives only what it moved beyond the start.
+        assert!((push_speed(-0.3, -0.5, -0.2, -0.2, h) - 0.4).abs() < 1e-12);
+        // Carried out by its own velocity beyond where the push would take it: none.
+        assert!(push_speed(-0.3, -0.1, -0.1, -0.2, h) <= 0.0);
+        // Ending beyond the target (other constraints pulled it out): capped at the target.
+        assert!((push_speed(-0.3, -0.3, 0.5, -0.2, h) - 0.4).abs() < 1e-12);
+        // Out once it ends at its reach, or once nothing holds it back.
+        assert!(still_inside(-0.2, -0.2, 0.01));
+        assert!(!still_inside(0.01 * (1.0 - 1e-12), -0.2, 0.01));
+        assert!(!still_inside(0.0, 0.01, 0.01));
+    }
+
+    #[test]
+    fn taking_a_push_off_keeps_the_tangential_motion_and_the_colliders() {
+        let push = PushOut {
+            normal: DVec3::Y,
+            collider_speed: 0.5,
+            speed: 1.0,
+            ..PushOut::NONE
+        };
+        // 1.5 m/s out on a collider moving out at 0.5: the 1 m/s the push gave goes.
+        let v = without_push_velocity(DVec3::new(2.0, 1.5, -1.0), &push);
+        assert_eq!(v, DVec3::new(2.0, 0.5, -1.0));
+        // Thrown out faster than the push: only the push's share goes.
+        let v = without_push_velocity(DVec3::new(0.0, 4.0, 0.0), &push);
+        assert_eq!(v, DVec3::new(0.0, 3.0, 0.0));
+        // Moving in relative to the collider: nothing to take off.
+        let v = without_push_velocity(DVec3::new(0.0, 0.2, 0.0), &push);
+        assert_eq!(v, DVec3::new(0.0, 0.2, 0.0));
+    }
+
     #[test]
     fn a_refresh_keeps_every_pair_a_full_broad_phase_finds() {
         let (rest, edges, tris) = cloth(14);

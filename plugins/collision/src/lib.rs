@@ -157,7 +157,8 @@
 //!    (a cloth placed through a collider) is moved out by at most `push_out_speed · h`
 //!    instead, here and in the contacts (`group::push_out_reach`): it leaves over several
 //!    substeps, its neighbours carried along by the stretch constraints, instead of being
-//!    thrown out in one jump that tears the cloth;
+//!    thrown out in one jump that tears the cloth; once out, the outward speed the pushes
+//!    gave it is taken off its velocity at the substep's end (`group::without_push_velocity`);
 //! 3. the **fail-safe**: the continuous test is run once more with zero thickness on every
 //!    candidate (for a collider's feature: reaching the collider's core — a face crossing a
 //!    box corner or a capsule's axis); while a pair still crosses, its dynamic particles are

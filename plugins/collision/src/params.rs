@@ -45,8 +45,9 @@ pub struct CollisionParams {
     /// an analytic collider than its contact distance (a cloth placed through a collider, a
     /// collider keyed to jump into it) leaves it by at most `push_out_speed · h` a substep
     /// instead of all at once, so its neighbours follow without tearing (PhysX's
-    /// `maxDepenetrationVelocity`, Maya's push-out). Primitives that start outside are
-    /// unaffected. Default 1 m/s.
+    /// `maxDepenetrationVelocity`, Maya's push-out). Once out, it keeps none of the outward
+    /// speed the pushes gave it (it rests on the surface instead of flying on). Primitives
+    /// that start outside are unaffected. Default 1 m/s.
     pub push_out_speed: f64,
     /// The most candidate pairs the group may hold in a substep before the substep fails with
     /// an error (0: automatic, 64 per primitive or 8 per pair within reach at rest, at least
@@ -183,7 +184,7 @@ impl CollisionParams {
             ParamSpec::any("exclude", d.exclude)
                 .doc("object pairs that never collide with each other: [[\"a\", \"b\"], ...]"),
             ParamSpec::number("push_out_speed", d.push_out_speed)
-                .doc("depenetration speed limit: a vertex, edge or face that starts a substep deeper inside an analytic collider than its thickness (a cloth placed through a collider) is moved out by at most this speed times the substep, so its neighbours follow without tearing; primitives outside are unaffected (PhysX's maxDepenetrationVelocity, Maya's push-out)")
+                .doc("depenetration speed limit: a vertex, edge or face that starts a substep deeper inside an analytic collider than its thickness (a cloth placed through a collider) is moved out by at most this speed times the substep, so its neighbours follow without tearing, and once out keeps none of the speed the pushes gave it; primitives outside are unaffected (PhysX's maxDepenetrationVelocity, Maya's push-out)")
                 .unit("m/s")
                 .range(1e-6, 1e6),
             ParamSpec::integer("max_candidates", d.max_candidates as i64)

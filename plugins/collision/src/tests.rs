@@ -454,10 +454,10 @@ params = {{ thickness = 0.003, colliders = [{{ type = "box", center = [0.0, -0.2
     assert_eq!(run(), run());
 }
 
-/// One particle started at `start` inside a sphere collider of radius 0.5 at the origin
-/// (particle thickness 0.005), no gravity, 4 substeps a frame; `push_out_speed` as given.
-/// Returns the particle's distance from the centre after each of `frames` frames.
-fn particle_in_sphere(start: f64, push_out_speed: f64, frames: usize) -> Vec<f64> {
+/// One particle of 10 g at `at` (m) moving at `velocity` (m/s), no gravity, 4 substeps a
+/// frame, the object's thickness 5 mm, in a collision group of parameters `params` (TOML).
+fn lone_particle(at: [f64; 3], velocity: [f64; 3], params: &str) -> Simulation {
+    let ([x, y, z], [vx, vy, vz]) = (at, velocity);
     let scene = format!(
         r#"
 [solver]
@@ -467,52 +467,139 @@ gravity = [0.0, 0.0, 0.0]
 [[objects]]
 name = "p"
 mass = 0.01
+velocity = [{vx:?}, {vy:?}, {vz:?}]
 [objects.particles]
-min = [{start}, 0.0, 0.0]
-max = [{start}, 0.0, 0.0]
+min = [{x:?}, {y:?}, {z:?}]
+max = [{x:?}, {y:?}, {z:?}]
 count = [1, 1, 1]
 [[constraints]]
 kind = "collision"
-params = {{ push_out_speed = {push_out_speed:e}, colliders = [{{ type = "sphere", center = [0.0, 0.0, 0.0], radius = 0.5 }}] }}
+params = {{ {params} }}
 "#
     );
-    let mut sim = simulation(&scene).unwrap();
+    simulation(&scene).unwrap()
+}
+
+/// A particle started at `start` (m) from the centre of a 0.5 m sphere along x
+/// ([`lone_particle`]): its distance from the centre and its velocity after each of `frames`
+/// frames.
+fn particle_in_sphere(
+    start: f64,
+    velocity: [f64; 3],
+    push_out_speed: f64,
+    frames: usize,
+) -> Vec<(f64, DVec3)> {
+    let params = format!(
+        r#"push_out_speed = {push_out_speed:e}, colliders = [{{ type = "sphere", center = [0.0, 0.0, 0.0], radius = 0.5 }}]"#
+    );
+    let mut sim = lone_particle([start, 0.0, 0.0], velocity, &params);
     (0..frames)
         .map(|_| {
             sim.step_frame().unwrap();
-            sim.positions()[0].length()
+            (sim.positions()[0].length(), sim.velocities()[0])
         })
         .collect()
 }
 
 #[test]
-fn a_particle_started_inside_a_collider_leaves_it_at_the_push_out_speed() {
+fn a_particle_started_inside_a_collider_leaves_it_at_the_push_out_speed_and_stops_on_its_surface() {
     // From 0.1 m off the centre to the contact distance 0.505 m at 0.6 m/s: every substep
-    // (h = 1/240 s) moves it out by exactly 0.6 h, so it is at 0.1 + 0.6 t until it is out,
-    // at t = 0.675 s (frame 40.5); then it keeps its 0.6 m/s (the push-out speed bounds the
-    // velocity a push gives).
-    let r = particle_in_sphere(0.1, 0.6, 50);
-    for (f, &d) in r.iter().enumerate() {
+    // (h = 1/240 s) moves it out by exactly 0.6 h, so it is at 0.1 + 0.6 t, moving out at
+    // 0.6 m/s, until it is out at t = 0.675 s (frame 40.5); then it rests on the surface: the
+    // velocity the push gave is taken off once it is out.
+    let r = particle_in_sphere(0.1, [0.0; 3], 0.6, 50);
+    for (f, &(d, v)) in r.iter().enumerate() {
         let t = (f + 1) as f64 / 60.0;
-        let expected = if t <= 0.675 {
-            0.1 + 0.6 * t
+        let (expected, speed) = if t <= 0.675 {
+            (0.1 + 0.6 * t, 0.6)
         } else {
-            0.505 + 0.6 * (t - 0.675)
+            (0.505, 0.0)
         };
         assert!(
             (d - expected).abs() < 1e-9,
             "frame {}: {d} m from the centre, expected {expected}",
             f + 1
         );
+        assert!(
+            (v - DVec3::new(speed, 0.0, 0.0)).length() < 1e-9,
+            "frame {}: velocity {v}, expected {speed} m/s out",
+            f + 1
+        );
     }
-    // An unbounded speed (the behaviour before the limit) puts it on the surface in the first
-    // substep, 0.405 m in 1/240 s: it leaves at 97 m/s and is 1.72 m out after one frame.
-    let r = particle_in_sphere(0.1, 1e6, 1);
+    // An unbounded speed puts it on the surface in the first substep (0.405 m in 1/240 s),
+    // where it stays; before the push's velocity was taken off it left at 97 m/s and was
+    // 1.72 m out after one frame.
+    let r = particle_in_sphere(0.1, [0.0; 3], 1e6, 3);
+    for &(d, v) in &r {
+        assert!((d - 0.505).abs() < 1e-9, "at {d} m, expected the surface");
+        assert!(v.length() < 1e-9, "velocity {v} after a push-out");
+    }
+}
+
+#[test]
+fn a_push_out_takes_only_the_velocity_it_gave() {
+    // Thrown out of the sphere at 2 m/s, faster than the push-out's 0.6 m/s: the push never
+    // acts, and the particle keeps its speed through the surface and beyond.
+    let r = particle_in_sphere(0.1, [2.0, 0.0, 0.0], 0.6, 30);
+    for (f, &(d, v)) in r.iter().enumerate() {
+        let t = (f + 1) as f64 / 60.0;
+        assert!(
+            (d - (0.1 + 2.0 * t)).abs() < 1e-9,
+            "frame {}: {d} m from the centre, expected {}",
+            f + 1,
+            0.1 + 2.0 * t
+        );
+        assert!(
+            (v - DVec3::new(2.0, 0.0, 0.0)).length() < 1e-9,
+            "velocity {v}"
+        );
+    }
+    // Thrown *into* the sphere at 3 m/s from inside: the push still brings it out at
+    // 0.6 m/s (the contact takes its inward speed), and it rests on the surface.
+    let r = particle_in_sphere(0.3, [-3.0, 0.0, 0.0], 0.6, 30);
+    let (d, v) = r[29];
     assert!(
-        (r[0] - (0.1 + 4.0 * 0.405)).abs() < 1e-9,
-        "at {} after one frame",
-        r[0]
+        (d - 0.505).abs() < 1e-9,
+        "at {d} m after 0.5 s, expected the surface"
     );
+    assert!(v.length() < 1e-9, "velocity {v}");
+}
+
+#[test]
+fn a_push_out_keeps_the_motion_along_the_surface() {
+    // A particle 0.1 m under a ground plane, sliding at 1 m/s along x, no friction: it rises
+    // at the push-out speed (0.5 m/s, 1/480 m a substep) and slides on at 1 m/s. The substep
+    // that takes it past its contact distance (5 mm; the 51st, in frame 13) ends at
+    // −0.1 + 51/480 = 6.25 mm, within one substep's push of it, and there it stays.
+    let mut sim = lone_particle(
+        [0.0, -0.1, 0.0],
+        [1.0, 0.0, 0.0],
+        r#"push_out_speed = 0.5, friction_static = 0.0, friction_dynamic = 0.0, colliders = [{ type = "plane", point = [0.0, 0.0, 0.0], normal = [0.0, 1.0, 0.0] }]"#,
+    );
+    for f in 1..=30 {
+        sim.step_frame().unwrap();
+        let t = f as f64 / 60.0;
+        let (x, v) = (sim.positions()[0], sim.velocities()[0]);
+        let (y, vy) = if f <= 12 {
+            (-0.1 + 0.5 * t, 0.5)
+        } else {
+            (-0.1 + 51.0 / 480.0, 0.0)
+        };
+        assert!(
+            (x.x - t).abs() < 1e-9,
+            "frame {f}: x = {}, expected {t}",
+            x.x
+        );
+        assert!(
+            (x.y - y).abs() < 1e-9,
+            "frame {f}: y = {}, expected {y}",
+            x.y
+        );
+        assert!(
+            (v - DVec3::new(1.0, vy, 0.0)).length() < 1e-9,
+            "frame {f}: velocity {v}, expected (1, {vy}, 0)"
+        );
+    }
 }
 
 /// A 16 × 16 self-colliding cloth of side 0.5 m in the plane y = 0, moving at `velocity`
