@@ -11,7 +11,9 @@ use crate::contact::{Contact, PairKind};
 use crate::distance;
 use crate::pairs::{self, Separation, Track};
 use crate::params::{CollisionParams, ObjectSettings};
-use crate::shapes::{first_contact, Collider, Pose};
+use crate::shapes::{
+    first_contact, segment_enters_box, triangle_enters_box, Collider, Pose, Shape,
+};
 
 /// A pair of primitives whose swept boxes overlap this substep.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
@@ -304,6 +306,40 @@ fn track(x0: &[DVec3], x: &[DVec3], i: u32) -> Track {
 #[inline]
 pub(crate) fn push_out_reach(reach: f64, start: f64, push: f64) -> f64 {
     reach.min(start + push)
+}
+
+/// A feature candidate's primitive against its feature ([`CollisionGroup::feature_side`]).
+struct FeatureSide {
+    /// The primitive's particles and their weights in its closest point `p`.
+    ids: [u32; 3],
+    w: [f64; 3],
+    p: DVec3,
+    /// The feature's closest point and the squared distance to it, as the query gives it.
+    q: DVec3,
+    d2: f64,
+    /// Whether `p` is inside the collider (only a box's features can have it so).
+    inside: bool,
+}
+
+impl FeatureSide {
+    /// The signed distance (m): negative on the wrong side of a box's feature.
+    fn distance(&self) -> f64 {
+        if self.inside {
+            -self.d2.sqrt()
+        } else {
+            self.d2.sqrt()
+        }
+    }
+
+    /// The direction out (from the feature to the primitive, reversed on the wrong side),
+    /// not normalised: `p − q` or `q − p`.
+    fn out(&self) -> DVec3 {
+        if self.inside {
+            self.q - self.p
+        } else {
+            self.p - self.q
+        }
+    }
 }
 
 /// The push-out a particle carries: the outward speed pushes gave it while it was inside an
@@ -1913,10 +1949,18 @@ impl CollisionGroup {
     ) -> Option<Contact> {
         let track = |i: u32| track(x0, x, i);
         let mut d = thickness_scale * reach;
-        if cand.kind.is_feature() && thickness_scale > 0.0 {
+        if cand.kind.is_feature() {
             let pose0 = self.pose0[self.feature_collider(cand) as usize];
             let start = self.feature_distance(cand, x0, pose0);
-            d = push_out_reach(d, start, self.push_out());
+            if start < 0.0 || self.starts_in_box(cand, x0) {
+                // In a box, or on the wrong side of its corner or edge: its way out crosses
+                // the box's features, which a contact or the fail-safe would forbid. The final
+                // projections push it out (`project_features_out`).
+                return None;
+            }
+            if thickness_scale > 0.0 {
+                d = push_out_reach(d, start, self.push_out());
+            }
         }
         let [a, b] = cand.pair;
         match cand.kind {
@@ -2202,7 +2246,9 @@ impl CollisionGroup {
     /// Pushes the faces and edges out of the analytic colliders to their contact distance at
     /// the end of the substep — the counterpart, for the colliders' features, of
     /// [`Self::project_out_of_colliders`]: a primitive closer than its reach to a feature
-    /// (at the collider's end pose) moves along the *current* separating direction, each
+    /// (at the collider's end pose) moves along the *current* separating direction (through
+    /// the feature, for a primitive on the wrong side of a box's corner or edge:
+    /// [`Self::feature_side`]), each
     /// particle by its weight in the closest point and its inverse mass, so that the closest
     /// point moves out by exactly the deficit. A contact keeps the plane of its time of
     /// impact, which drifts when the cloth slides around a curved core; this does not. A pair
@@ -2226,27 +2272,28 @@ impl CollisionGroup {
                 continue;
             }
             let c = self.feature_collider(*cand) as usize;
-            let (ids, w, q, _) = self.feature_closest(*cand, x, self.pose1[c]);
-            let p: DVec3 = (0..3).map(|j| w[j] * x[ids[j] as usize]).sum();
-            let sep = p - q;
-            let dist = sep.length();
-            if dist >= self.reach[k] || dist < 1e-12 || !dist.is_finite() {
+            let side = self.feature_side(*cand, x, self.pose1[c]);
+            let (ids, w, out) = (side.ids, side.w, side.out());
+            let dist = out.length();
+            let signed = if side.inside { -dist } else { dist };
+            if signed >= self.reach[k] || dist < 1e-12 || !dist.is_finite() {
                 continue;
             }
             let start = self.feature_distance(*cand, x0, self.pose0[c]);
-            let reach = push_out_reach(self.reach[k], start, self.push_out());
-            let deficit = reach - dist;
+            let target = push_out_reach(self.reach[k], start, self.push_out());
+            let deficit = target - signed;
             if deficit <= 0.0 {
                 continue;
             }
-            worst = worst.max(deficit / reach);
+            // Relative to the distance it is pushed to (its reach, unless a push-out limits it).
+            worst = worst.max(deficit / target.abs().max(f64::MIN_POSITIVE));
             let w_total: f64 = (0..3)
                 .map(|j| inv_mass[ids[j] as usize] * w[j] * w[j])
                 .sum();
             if w_total <= 0.0 || !w_total.is_finite() {
                 continue;
             }
-            let step = sep * (deficit / (dist * w_total));
+            let step = out * (deficit / (dist * w_total));
             for j in 0..3 {
                 let i = ids[j] as usize;
                 if w[j] != 0.0 && inv_mass[i] > 0.0 {
@@ -2296,7 +2343,54 @@ impl CollisionGroup {
     /// The distance (m) between a feature candidate's feature, with the collider at `pose`,
     /// and its primitive at `x`.
     fn feature_distance(&self, cand: Candidate, x: &[DVec3], pose: Pose) -> f64 {
-        self.feature_closest(cand, x, pose).3.sqrt()
+        self.feature_side(cand, x, pose).distance()
+    }
+
+    /// Whether a feature candidate's primitive (its edge or face) starts the substep in the
+    /// interior of its collider, a box (at `x0` and the collider's start pose): a cloth
+    /// started through a box, whose way out crosses the box's edges and corners.
+    fn starts_in_box(&self, cand: Candidate, x0: &[DVec3]) -> bool {
+        let c = self.feature_collider(cand) as usize;
+        let Shape::Box {
+            center,
+            half_extents,
+            rotation,
+        } = self.colliders[c].shape
+        else {
+            return false;
+        };
+        let pose0 = self.pose0[c];
+        let local = |i: u32| rotation.inverse() * (pose0.inverse_apply(x0[i as usize]) - center);
+        let b = cand.pair[1] as usize;
+        match cand.kind {
+            PairKind::FeatureFace => triangle_enters_box(self.faces[b].map(local), half_extents),
+            _ => {
+                let [p, q] = self.edges[b].map(local);
+                segment_enters_box(p, q, half_extents)
+            }
+        }
+    }
+
+    /// A feature candidate's closest points ([`Self::feature_closest`]), and on which side of
+    /// its feature the primitive is. A box's corners and edges are its surface: a primitive
+    /// whose closest point lies inside the box (a cloth edge cutting a corner, a face a box
+    /// edge pokes through) is on the wrong side, and its way out is through the feature. A
+    /// sphere's centre and a capsule's axis are inside their shapes: every primitive is on
+    /// the outer side of them.
+    fn feature_side(&self, cand: Candidate, x: &[DVec3], pose: Pose) -> FeatureSide {
+        let (ids, w, q, d2) = self.feature_closest(cand, x, pose);
+        let p: DVec3 = (0..3).map(|j| w[j] * x[ids[j] as usize]).sum();
+        let shape = &self.colliders[self.feature_collider(cand) as usize].shape;
+        let inside = matches!(shape, Shape::Box { .. })
+            && shape.signed_distance(pose.inverse_apply(p)).0 < 0.0;
+        FeatureSide {
+            ids,
+            w,
+            p,
+            q,
+            d2,
+            inside,
+        }
     }
 
     /// How far (m) a primitive that starts the substep inside a collider may leave it by in
@@ -2360,13 +2454,13 @@ impl CollisionGroup {
                 if !short_of(start, reach) {
                     continue;
                 }
-                let (ids, w, q, d2) = self.feature_closest(cand, x, pose1);
-                let p: DVec3 = (0..3).map(|j| w[j] * x[ids[j] as usize]).sum();
-                let dist = d2.sqrt();
-                if dist.is_nan() || dist <= 1e-12 || !dist.is_finite() {
+                let side = self.feature_side(cand, x, pose1);
+                let (ids, w, q) = (side.ids, side.w, side.q);
+                let dist = side.distance();
+                if dist.is_nan() || dist.abs() <= 1e-12 || !dist.is_finite() {
                     continue;
                 }
-                let normal = (p - q) / dist;
+                let normal = side.out() / dist.abs();
                 let collider_speed = normal.dot(q - pose0.apply(pose1.inverse_apply(q))) / h;
                 let predicted = self.feature_distance(cand, &self.x_pred, pose1);
                 let target = push_out_reach(reach, start, push);

@@ -158,7 +158,11 @@
 //!    instead, here and in the contacts (`group::push_out_reach`): it leaves over several
 //!    substeps, its neighbours carried along by the stretch constraints, instead of being
 //!    thrown out in one jump that tears the cloth; once out, the outward speed the pushes
-//!    gave it is taken off its velocity at the substep's end (`group::without_push_velocity`);
+//!    gave it is taken off its velocity at the substep's end (`group::without_push_velocity`).
+//!    A box's corners and edges are its surface: an edge or face that starts the substep in
+//!    the box, or whose closest point to a corner or edge is inside it, is pushed out
+//!    *through* that feature (and has no contact or fail-safe test against it, both of which
+//!    would hold it inside), so a cloth started through a box is untangled;
 //! 3. the **fail-safe**: the continuous test is run once more with zero thickness on every
 //!    candidate (for a collider's feature: reaching the collider's core — a face crossing a
 //!    box corner or a capsule's axis); while a pair still crosses, its dynamic particles are

@@ -418,9 +418,120 @@ pub fn first_contact(shape: &Shape, q0: DVec3, q1: DVec3, r: f64) -> Option<f64>
     }
 }
 
+/// Whether the segment `p–q` meets the *open* box of half extents `h` centred at the origin
+/// (axis-aligned): some point of it is strictly inside. Touching the surface is not meeting
+/// it. Slab test: the parameters where the segment is strictly within each slab, intersected.
+pub fn segment_enters_box(p: DVec3, q: DVec3, h: DVec3) -> bool {
+    let (mut lo, mut hi) = (0.0_f64, 1.0_f64);
+    let d = q - p;
+    for k in 0..3 {
+        if d[k] == 0.0 {
+            if p[k].abs() >= h[k] {
+                return false;
+            }
+            continue;
+        }
+        let (a, b) = ((-h[k] - p[k]) / d[k], (h[k] - p[k]) / d[k]);
+        let (a, b) = (a.min(b), a.max(b));
+        lo = lo.max(a);
+        hi = hi.min(b);
+        if lo >= hi {
+            return false;
+        }
+    }
+    lo < hi
+}
+
+/// Whether the triangle `t` meets the *open* box of half extents `h` centred at the origin
+/// (axis-aligned), by separating axes: the box's three face normals, the triangle's normal and
+/// the nine cross products of their edges; an axis along which the projections at most touch
+/// separates them. A degenerate triangle is tested as its edges.
+pub fn triangle_enters_box(t: [DVec3; 3], h: DVec3) -> bool {
+    let e = [t[1] - t[0], t[2] - t[1], t[0] - t[2]];
+    let normal = e[0].cross(e[1]);
+    if normal.length_squared() <= f64::MIN_POSITIVE {
+        return (0..3).any(|i| segment_enters_box(t[i], t[(i + 1) % 3], h));
+    }
+    let separates = |axis: DVec3| {
+        let r = h.x * axis.x.abs() + h.y * axis.y.abs() + h.z * axis.z.abs();
+        let s = t.map(|v| v.dot(axis));
+        let (lo, hi) = (s[0].min(s[1]).min(s[2]), s[0].max(s[1]).max(s[2]));
+        lo >= r || hi <= -r
+    };
+    if [DVec3::X, DVec3::Y, DVec3::Z, normal]
+        .into_iter()
+        .any(separates)
+    {
+        return false;
+    }
+    for edge in e {
+        for axis in [DVec3::X, DVec3::Y, DVec3::Z] {
+            let a = edge.cross(axis);
+            if a.length_squared() > 1e-30 * edge.length_squared() && separates(a) {
+                return false;
+            }
+        }
+    }
+    true
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_segment_enters_a_box_only_through_its_interior() {
+        let h = DVec3::new(1.0, 2.0, 3.0);
+        let v = DVec3::new;
+        // Through the middle, one end inside, both ends far outside across a corner region.
+        assert!(segment_enters_box(v(-5.0, 0.0, 0.0), v(5.0, 0.0, 0.0), h));
+        assert!(segment_enters_box(v(0.5, 0.5, 0.5), v(9.0, 9.0, 9.0), h));
+        assert!(segment_enters_box(v(0.5, -3.0, 0.0), v(1.5, 3.0, 0.0), h));
+        // Along a face, through an edge, touching a corner, passing by: not in the interior.
+        assert!(!segment_enters_box(v(-5.0, 2.0, 0.0), v(5.0, 2.0, 0.0), h));
+        assert!(!segment_enters_box(v(0.0, 3.0, 0.0), v(2.0, 1.0, 0.0), h));
+        assert!(!segment_enters_box(v(1.0, 2.0, 3.0), v(2.0, 3.0, 4.0), h));
+        assert!(!segment_enters_box(v(1.5, 0.0, 0.0), v(1.5, 5.0, 5.0), h));
+        // A point segment.
+        assert!(segment_enters_box(v(0.0, 0.0, 0.0), v(0.0, 0.0, 0.0), h));
+        assert!(!segment_enters_box(v(1.0, 0.0, 0.0), v(1.0, 0.0, 0.0), h));
+    }
+
+    #[test]
+    fn a_triangle_enters_a_box_when_they_share_interior_points() {
+        let h = DVec3::splat(1.0);
+        let v = DVec3::new;
+        // A big triangle the box pokes through (no vertex inside, no edge through it).
+        assert!(triangle_enters_box(
+            [v(-10.0, -10.0, 0.5), v(10.0, -10.0, 0.5), v(0.0, 10.0, 0.5)],
+            h
+        ));
+        // A triangle cutting a corner of the box (z = 0, along x + y = 1.9 < 2).
+        assert!(triangle_enters_box(
+            [v(0.4, 1.5, 0.0), v(1.5, 0.4, 0.0), v(1.5, 1.5, 0.0)],
+            h
+        ));
+        // The same beyond the corner (x + y = 2.3): the faces' normals and its own do not
+        // separate it, the cross product of its edge and the box's z edge does.
+        assert!(!triangle_enters_box(
+            [v(0.8, 1.5, 0.0), v(1.5, 0.8, 0.0), v(1.5, 1.5, 0.0)],
+            h
+        ));
+        // Lying on a face, or beyond it: no.
+        assert!(!triangle_enters_box(
+            [v(-0.5, -0.5, 1.0), v(0.5, -0.5, 1.0), v(0.0, 0.5, 1.0)],
+            h
+        ));
+        assert!(!triangle_enters_box(
+            [v(-5.0, -5.0, 1.2), v(5.0, -5.0, 1.2), v(0.0, 5.0, 1.2)],
+            h
+        ));
+        // A degenerate triangle is its edges.
+        assert!(triangle_enters_box(
+            [v(-5.0, 0.0, 0.0), v(5.0, 0.0, 0.0), v(0.0, 0.0, 0.0)],
+            h
+        ));
+    }
 
     fn shapes() -> Vec<Shape> {
         vec![
