@@ -134,6 +134,10 @@ pub struct CollisionGroup {
     /// edges in their collider's rest frame, with the collider's index.
     feat_points: Vec<(u32, DVec3)>,
     feat_edges: Vec<(u32, [DVec3; 2])>,
+    /// The feature edges that end at each feature point (a capsule's axis at its ends).
+    point_edges: Vec<Vec<u32>>,
+    /// The (at most two) faces on each edge (`NONE` for none).
+    edge_faces: Vec<[u32; 2]>,
     /// For each local object whose every vertex is kinematic, three vertices spanning a
     /// frame (its rigid motion carries vertices frozen by the fail-safe).
     rigid_frame: Vec<Option<[u32; 3]>>,
@@ -306,6 +310,25 @@ fn track(x0: &[DVec3], x: &[DVec3], i: u32) -> Track {
 #[inline]
 pub(crate) fn push_out_reach(reach: f64, start: f64, push: f64) -> f64 {
     reach.min(start + push)
+}
+
+/// The faces on each edge (at most two kept; `NONE` for none).
+fn edge_faces(edges: &[[u32; 2]], faces: &[[u32; 3]]) -> Vec<[u32; 2]> {
+    let index: std::collections::HashMap<[u32; 2], usize> =
+        edges.iter().enumerate().map(|(i, &e)| (e, i)).collect();
+    let mut out = vec![[NONE; 2]; edges.len()];
+    for (f, t) in faces.iter().enumerate() {
+        for (a, b) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
+            if let Some(&e) = index.get(&[a.min(b), a.max(b)]) {
+                match out[e] {
+                    [NONE, _] => out[e][0] = f as u32,
+                    [_, NONE] => out[e][1] = f as u32,
+                    _ => {}
+                }
+            }
+        }
+    }
+    out
 }
 
 /// A feature candidate's primitive against its feature ([`CollisionGroup::feature_side`]).
@@ -542,6 +565,8 @@ impl CollisionGroup {
             feat_edge_tracks: vec![[DVec3::ZERO; 4]; feat_edges.len()],
             feat_point_boxes: vec![Aabb::EMPTY; feat_points.len()],
             feat_edge_boxes: vec![Aabb::EMPTY; feat_edges.len()],
+            point_edges: Vec::new(),
+            edge_faces: Vec::new(),
             feat_points,
             feat_edges,
             rigid_frame: Vec::new(),
@@ -722,6 +747,19 @@ impl CollisionGroup {
         }
 
         g.max_thickness = g.settings.iter().map(|s| s.thickness).fold(0.0, f64::max);
+        g.point_edges = g
+            .feat_points
+            .iter()
+            .map(|&(c, p)| {
+                (0..g.feat_edges.len() as u32)
+                    .filter(|&e| {
+                        let (ec, [a, b]) = g.feat_edges[e as usize];
+                        ec == c && (a == p || b == p)
+                    })
+                    .collect()
+            })
+            .collect();
+        g.edge_faces = edge_faces(&g.edges, &g.faces);
 
         // Broad-phase structures over the rest pose; refit from the first substep on.
         let radius_v = |i: usize| g.settings[g.vert_obj[i] as usize].thickness;
@@ -1952,7 +1990,7 @@ impl CollisionGroup {
         if cand.kind.is_feature() {
             let pose0 = self.pose0[self.feature_collider(cand) as usize];
             let start = self.feature_distance(cand, x0, pose0);
-            if start < 0.0 || self.starts_in_box(cand, x0) {
+            if start < 0.0 || self.starts_in_box(cand, x0) || self.starts_impaled(cand, x0) {
                 // In a box, or on the wrong side of its corner or edge: its way out crosses
                 // the box's features, which a contact or the fail-safe would forbid. The final
                 // projections push it out (`project_features_out`).
@@ -2271,6 +2309,13 @@ impl CollisionGroup {
             if !cand.kind.is_feature() {
                 continue;
             }
+            if self.starts_impaled(*cand, x0) {
+                if cand.kind == PairKind::FeatureEdgeEdge {
+                    let left = self.push_off_axis(*cand, self.reach[k], x0, x, inv_mass);
+                    worst = worst.max(left);
+                }
+                continue;
+            }
             let c = self.feature_collider(*cand) as usize;
             let side = self.feature_side(*cand, x, self.pose1[c]);
             let (ids, w, out) = (side.ids, side.w, side.out());
@@ -2369,6 +2414,78 @@ impl CollisionGroup {
                 segment_enters_box(p, q, half_extents)
             }
         }
+    }
+
+    /// Whether a feature candidate of a capsule starts the substep *impaled*: for its axis
+    /// and an edge, the axis through a face on the edge; for an end and a face, the axis
+    /// through the face (at `x0` and the collider's start pose). The way off is along the axis
+    /// ([`Self::push_off_axis`]), across the axis and over the end, which a contact or the
+    /// fail-safe would forbid.
+    fn starts_impaled(&self, cand: Candidate, x0: &[DVec3]) -> bool {
+        let c = self.feature_collider(cand) as usize;
+        if !matches!(self.colliders[c].shape, Shape::Capsule { .. }) {
+            return false;
+        }
+        let (a, b) = (cand.pair[0] as usize, cand.pair[1] as usize);
+        let pose0 = self.pose0[c];
+        let pierces = |e: usize, f: u32| {
+            let [p, q] = self.feat_edges[e].1.map(|v| pose0.apply(v));
+            let t = self.faces[f as usize].map(|i| x0[i as usize]);
+            distance::segment_triangle_intersect(p, q, t)
+        };
+        match cand.kind {
+            PairKind::FeatureEdgeEdge => self.edge_faces[b]
+                .iter()
+                .any(|&f| f != NONE && pierces(a, f)),
+            PairKind::FeatureFace => self.point_edges[a]
+                .iter()
+                .any(|&e| pierces(e as usize, b as u32)),
+            _ => false,
+        }
+    }
+
+    /// Moves the particles of a cloth edge impaled on a capsule's axis (its face pierced at the
+    /// substep's start, [`Self::starts_impaled`]) along the axis towards the end nearer to where
+    /// the axis meets it, until each is `reach` (m) beyond that end, by at most the push-out
+    /// distance beyond where it started: the cloth slides off the capsule over its end. Returns
+    /// the largest move left, relative to `reach`.
+    fn push_off_axis(
+        &self,
+        cand: Candidate,
+        reach: f64,
+        x0: &[DVec3],
+        x: &mut [DVec3],
+        inv_mass: &[f64],
+    ) -> f64 {
+        let (f, e) = (cand.pair[0] as usize, cand.pair[1] as usize);
+        let (c, [a, b]) = self.feat_edges[f];
+        let (pose0, pose1) = (self.pose0[c as usize], self.pose1[c as usize]);
+        let edge = self.edges[e];
+        let (a0, b0) = (pose0.apply(a), pose0.apply(b));
+        let (s, _, _) =
+            distance::segment_segment_closest(a0, b0, x0[edge[0] as usize], x0[edge[1] as usize]);
+        // Towards the nearer end, in the collider's frame: its start and end poses.
+        let (from, to) = if s >= 0.5 { (a, b) } else { (b, a) };
+        let dir = (to - from).normalize_or_zero();
+        if dir == DVec3::ZERO {
+            return 0.0;
+        }
+        let (dir0, end0) = (pose0.rotate(dir), pose0.apply(to));
+        let (dir1, end1) = (pose1.rotate(dir), pose1.apply(to));
+        let mut worst: f64 = 0.0;
+        for i in edge.map(|i| i as usize) {
+            if inv_mass[i] == 0.0 {
+                continue;
+            }
+            let start = dir0.dot(x0[i] - end0);
+            let target = push_out_reach(reach, start, self.push_out());
+            let deficit = target - dir1.dot(x[i] - end1);
+            if deficit > 0.0 {
+                x[i] += deficit * dir1;
+                worst = worst.max(deficit / reach);
+            }
+        }
+        worst
     }
 
     /// A feature candidate's closest points ([`Self::feature_closest`]), and on which side of
