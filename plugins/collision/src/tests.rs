@@ -566,6 +566,47 @@ fn a_push_out_takes_only_the_velocity_it_gave() {
 }
 
 #[test]
+fn a_push_out_out_of_a_moving_collider_gives_no_velocity_of_its_own() {
+    // A ground plane moving at 0.2 m/s along its normal, up or down, a particle at rest 0.1 m
+    // under it, no gravity. The particle rises at the push-out speed relative to the plane
+    // (0.5 m/s), gets out in the 51st substep (frame 13) 6.25 mm from it (one substep's push
+    // beyond its 5 mm), and keeps only the velocity it would have had without the push: at
+    // rest when the plane falls away (the plane's own motion gave it nothing), the plane's
+    // 0.2 m/s when the plane rises into it (the contact would have carried it anyway).
+    for plane_v in [-0.2f64, 0.2] {
+        let mut sim = lone_particle(
+            [0.0, -0.1, 0.0],
+            [0.0; 3],
+            &format!(
+                r#"push_out_speed = 0.5, colliders = [{{ type = "plane", point = [0.0, 0.0, 0.0], normal = [0.0, 1.0, 0.0], velocity = [0.0, {plane_v:?}, 0.0] }}]"#
+            ),
+        );
+        let after = plane_v.max(0.0);
+        for f in 1..=30 {
+            sim.step_frame().unwrap();
+            let t = f as f64 / 60.0;
+            let (x, v) = (sim.positions()[0], sim.velocities()[0]);
+            let gap = x.y - plane_v * t;
+            let (expected_gap, vy) = if f <= 12 {
+                (-0.1 + 0.5 * t, 0.5 + plane_v)
+            } else {
+                // Out at t = 51/240 s.
+                let out = 51.0 / 240.0;
+                (-0.1 + 51.0 / 480.0 + (after - plane_v) * (t - out), after)
+            };
+            assert!(
+                (gap - expected_gap).abs() < 1e-9,
+                "plane at {plane_v} m/s, frame {f}: {gap} m from it, expected {expected_gap}"
+            );
+            assert!(
+                (v - DVec3::new(0.0, vy, 0.0)).length() < 1e-9,
+                "plane at {plane_v} m/s, frame {f}: velocity {v}, expected (0, {vy}, 0)"
+            );
+        }
+    }
+}
+
+#[test]
 fn a_push_out_keeps_the_motion_along_the_surface() {
     // A particle 0.1 m under a ground plane, sliding at 1 m/s along x, no friction: it rises
     // at the push-out speed (0.5 m/s, 1/480 m a substep) and slides on at 1 m/s. The substep
