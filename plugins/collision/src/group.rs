@@ -138,6 +138,9 @@ pub struct CollisionGroup {
     point_edges: Vec<Vec<u32>>,
     /// The (at most two) faces on each edge (`NONE` for none).
     edge_faces: Vec<[u32; 2]>,
+    /// (collider, local object) pairs impaled this substep ([`Self::find_impaled`]);
+    /// capacity for every pair, set at build.
+    impaled: Vec<(u32, u32)>,
     /// For each local object whose every vertex is kinematic, three vertices spanning a
     /// frame (its rigid motion carries vertices frozen by the fail-safe).
     rigid_frame: Vec<Option<[u32; 3]>>,
@@ -567,6 +570,7 @@ impl CollisionGroup {
             feat_edge_boxes: vec![Aabb::EMPTY; feat_edges.len()],
             point_edges: Vec::new(),
             edge_faces: Vec::new(),
+            impaled: Vec::new(),
             feat_points,
             feat_edges,
             rigid_frame: Vec::new(),
@@ -760,6 +764,7 @@ impl CollisionGroup {
             })
             .collect();
         g.edge_faces = edge_faces(&g.edges, &g.faces);
+        g.impaled = Vec::with_capacity(g.colliders.len() * g.settings.len());
 
         // Broad-phase structures over the rest pose; refit from the first substep on.
         let radius_v = |i: usize| g.settings[g.vert_obj[i] as usize].thickness;
@@ -1990,7 +1995,11 @@ impl CollisionGroup {
         if cand.kind.is_feature() {
             let pose0 = self.pose0[self.feature_collider(cand) as usize];
             let start = self.feature_distance(cand, x0, pose0);
-            if start < 0.0 || self.starts_in_box(cand, x0) || self.starts_impaled(cand, x0) {
+            if start < 0.0
+                || self.starts_in_box(cand, x0)
+                || self.starts_impaled(cand, x0)
+                || self.slides_off_axis(cand, reach, x0)
+            {
                 // In a box, or on the wrong side of its corner or edge: its way out crosses
                 // the box's features, which a contact or the fail-safe would forbid. The final
                 // projections push it out (`project_features_out`).
@@ -2020,6 +2029,10 @@ impl CollisionGroup {
                 let (pose0, pose1) = (self.pose0[c], self.pose1[c]);
                 let q0 = pose0.inverse_apply(x0[p]);
                 let q1 = pose1.inverse_apply(x[p]);
+                if self.impaled_vertex(c, v) && col.shape.signed_distance(q0).0 < reach {
+                    // Slides off the axis in the final projection instead.
+                    return None;
+                }
                 let d = if thickness_scale > 0.0 {
                     push_out_reach(d, col.shape.signed_distance(q0).0, self.push_out())
                 } else {
@@ -2264,6 +2277,17 @@ impl CollisionGroup {
                 continue;
             };
             let col = &self.colliders[c];
+            if self.impaled_vertex(c, cand.pair[1] as usize) {
+                let start = col
+                    .shape
+                    .signed_distance(self.pose0[c].inverse_apply(x0[p]));
+                if start.0 < r {
+                    if let Some(exit) = self.axis_exit(c, self.axis_parameter(c, x0[p])) {
+                        self.slide_off_axis(exit, p, r, x0, x);
+                    }
+                    continue;
+                }
+            }
             let pose = self.pose1[c];
             let q = pose.inverse_apply(x[p]);
             let (phi, n) = col.shape.signed_distance(q);
@@ -2309,11 +2333,9 @@ impl CollisionGroup {
             if !cand.kind.is_feature() {
                 continue;
             }
-            if self.starts_impaled(*cand, x0) {
-                if cand.kind == PairKind::FeatureEdgeEdge {
-                    let left = self.push_off_axis(*cand, self.reach[k], x0, x, inv_mass);
-                    worst = worst.max(left);
-                }
+            if self.starts_impaled(*cand, x0) || self.slides_off_axis(*cand, self.reach[k], x0) {
+                let left = self.push_off_axis(*cand, self.reach[k], x0, x, inv_mass);
+                worst = worst.max(left);
                 continue;
             }
             let c = self.feature_collider(*cand) as usize;
@@ -2444,11 +2466,55 @@ impl CollisionGroup {
         }
     }
 
+    /// The way off a capsule's axis for a point at parameter `s` along it (0 at its first
+    /// end, 1 at its second): the unit direction along the axis towards the nearer end, and
+    /// that end, at the collider's start and end poses (`None` if the collider is not a
+    /// capsule or its axis has no length).
+    fn axis_exit(&self, c: usize, s: f64) -> Option<[DVec3; 4]> {
+        let Shape::Capsule { a, b, .. } = self.colliders[c].shape else {
+            return None;
+        };
+        let (from, to) = if s >= 0.5 { (a, b) } else { (b, a) };
+        let dir = (to - from).normalize_or_zero();
+        if dir == DVec3::ZERO {
+            return None;
+        }
+        let (pose0, pose1) = (self.pose0[c], self.pose1[c]);
+        Some([
+            pose0.rotate(dir),
+            pose0.apply(to),
+            pose1.rotate(dir),
+            pose1.apply(to),
+        ])
+    }
+
+    /// Moves particle `i` along an [`Self::axis_exit`] until it is `reach` (m) beyond the
+    /// end, by at most the push-out distance beyond where it started; returns the move left
+    /// before this one, relative to `reach`.
+    fn slide_off_axis(
+        &self,
+        exit: [DVec3; 4],
+        i: usize,
+        reach: f64,
+        x0: &[DVec3],
+        x: &mut [DVec3],
+    ) -> f64 {
+        let [dir0, end0, dir1, end1] = exit;
+        let start = dir0.dot(x0[i] - end0);
+        let target = push_out_reach(reach, start, self.push_out());
+        let deficit = target - dir1.dot(x[i] - end1);
+        if deficit > 0.0 {
+            x[i] += deficit * dir1;
+            deficit / reach
+        } else {
+            0.0
+        }
+    }
+
     /// Moves the particles of a cloth edge impaled on a capsule's axis (its face pierced at the
     /// substep's start, [`Self::starts_impaled`]) along the axis towards the end nearer to where
-    /// the axis meets it, until each is `reach` (m) beyond that end, by at most the push-out
-    /// distance beyond where it started: the cloth slides off the capsule over its end. Returns
-    /// the largest move left, relative to `reach`.
+    /// the axis meets it ([`Self::slide_off_axis`]): the cloth slides off the capsule over
+    /// its end. Returns the largest move left, relative to `reach`.
     fn push_off_axis(
         &self,
         cand: Candidate,
@@ -2457,35 +2523,81 @@ impl CollisionGroup {
         x: &mut [DVec3],
         inv_mass: &[f64],
     ) -> f64 {
-        let (f, e) = (cand.pair[0] as usize, cand.pair[1] as usize);
-        let (c, [a, b]) = self.feat_edges[f];
-        let (pose0, pose1) = (self.pose0[c as usize], self.pose1[c as usize]);
-        let edge = self.edges[e];
-        let (a0, b0) = (pose0.apply(a), pose0.apply(b));
-        let (s, _, _) =
-            distance::segment_segment_closest(a0, b0, x0[edge[0] as usize], x0[edge[1] as usize]);
-        // Towards the nearer end, in the collider's frame: its start and end poses.
-        let (from, to) = if s >= 0.5 { (a, b) } else { (b, a) };
-        let dir = (to - from).normalize_or_zero();
-        if dir == DVec3::ZERO {
-            return 0.0;
-        }
-        let (dir0, end0) = (pose0.rotate(dir), pose0.apply(to));
-        let (dir1, end1) = (pose1.rotate(dir), pose1.apply(to));
-        let mut worst: f64 = 0.0;
-        for i in edge.map(|i| i as usize) {
-            if inv_mass[i] == 0.0 {
-                continue;
+        let c = self.feature_collider(cand) as usize;
+        let b = cand.pair[1] as usize;
+        let ids = match cand.kind {
+            PairKind::FeatureFace => self.faces[b],
+            _ => {
+                let [p, q] = self.edges[b];
+                [p, q, q]
             }
-            let start = dir0.dot(x0[i] - end0);
-            let target = push_out_reach(reach, start, self.push_out());
-            let deficit = target - dir1.dot(x[i] - end1);
-            if deficit > 0.0 {
-                x[i] += deficit * dir1;
-                worst = worst.max(deficit / reach);
+        };
+        let centre = (x0[ids[0] as usize] + x0[ids[1] as usize] + x0[ids[2] as usize]) / 3.0;
+        let Some(exit) = self.axis_exit(c, self.axis_parameter(c, centre)) else {
+            return 0.0;
+        };
+        let mut worst: f64 = 0.0;
+        for i in ids.map(|i| i as usize) {
+            if inv_mass[i] > 0.0 {
+                worst = worst.max(self.slide_off_axis(exit, i, reach, x0, x));
             }
         }
         worst
+    }
+
+    /// The parameter along capsule `c`'s axis (0 at its first end, 1 at its second) of the
+    /// point of it nearest to `p`, at the collider's start pose (0 for a point, or not a
+    /// capsule).
+    fn axis_parameter(&self, c: usize, p: DVec3) -> f64 {
+        let Shape::Capsule { a, b, .. } = self.colliders[c].shape else {
+            return 0.0;
+        };
+        let (a0, b0) = (self.pose0[c].apply(a), self.pose0[c].apply(b));
+        distance::point_segment_closest(p, a0, b0).0
+    }
+
+    /// Lists the (collider, local object) pairs with an object's face impaled on a capsule's
+    /// axis at the substep's start ([`Self::starts_impaled`]): the vertices of that object
+    /// inside the capsule slide off along the axis with the impaled faces
+    /// ([`Self::impaled_vertex`]) instead of leaving it radially, which would open a hole
+    /// around the axis and stretch the cloth around it.
+    fn find_impaled(&mut self, x0: &[DVec3]) {
+        self.impaled.clear();
+        for k in 0..self.candidates.len() {
+            let cand = self.candidates[k];
+            if cand.kind != PairKind::FeatureEdgeEdge || !self.starts_impaled(cand, x0) {
+                continue;
+            }
+            let pair = (
+                self.feature_collider(cand),
+                self.edge_obj[cand.pair[1] as usize],
+            );
+            if !self.impaled.contains(&pair) && self.impaled.len() < self.impaled.capacity() {
+                self.impaled.push(pair);
+            }
+        }
+    }
+
+    /// Whether a capsule feature candidate's primitive belongs to an object impaled on that
+    /// capsule this substep and starts inside it (closer to the feature than `reach`): it
+    /// slides off along the axis ([`Self::push_off_axis`]) instead of leaving it radially.
+    fn slides_off_axis(&self, cand: Candidate, reach: f64, x0: &[DVec3]) -> bool {
+        if self.impaled.is_empty() {
+            return false;
+        }
+        let c = self.feature_collider(cand);
+        let b = cand.pair[1] as usize;
+        let object = match cand.kind {
+            PairKind::FeatureFace => self.face_obj[b],
+            _ => self.edge_obj[b],
+        };
+        self.impaled.contains(&(c, object))
+            && self.feature_distance(cand, x0, self.pose0[c as usize]) < reach
+    }
+
+    /// Whether vertex primitive `v`'s object is impaled on collider `c` this substep.
+    fn impaled_vertex(&self, c: usize, v: usize) -> bool {
+        !self.impaled.is_empty() && self.impaled.contains(&(c as u32, self.vert_obj[v]))
     }
 
     /// A feature candidate's closest points ([`Self::feature_closest`]), and on which side of
@@ -2540,6 +2652,9 @@ impl CollisionGroup {
                 let Some((c, p, r)) = self.dynamic_collider_pair(cand, inv_mass) else {
                     continue;
                 };
+                if self.impaled_vertex(c, cand.pair[1] as usize) {
+                    continue;
+                }
                 let col = &self.colliders[c];
                 let (pose0, pose1) = (self.pose0[c], self.pose1[c]);
                 let start = col.shape.signed_distance(pose0.inverse_apply(x0[p])).0;
@@ -2932,6 +3047,7 @@ impl ConstraintGroup for CollisionGroup {
             self.restart_passes(p.x);
         }
         self.within_substep = true;
+        self.find_impaled(p.x0);
         self.over_budget_error(p.x0, p.x)
     }
 

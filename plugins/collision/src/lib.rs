@@ -162,9 +162,9 @@
 //!    A box's corners and edges are its surface: an edge or face that starts the substep in
 //!    the box, or whose closest point to a corner or edge is inside it, is pushed out
 //!    *through* that feature (and has no contact or fail-safe test against it, both of which
-//!    would hold it inside), so a cloth started through a box is untangled; a face a
-//!    capsule's axis pierces, and the edges on it, slide along the axis over its nearer end
-//!    (`push_off_axis`);
+//!    would hold it inside), so a cloth started through a box is untangled; a cloth a
+//!    capsule's axis pierces (impaled) slides along the axis over its nearer end, every part of
+//!    it inside the capsule with it (`push_off_axis`, `slide_off_axis`);
 //! 3. the **fail-safe**: the continuous test is run once more with zero thickness on every
 //!    candidate (for a collider's feature: reaching the collider's core — a face crossing a
 //!    box corner or a capsule's axis); while a pair still crosses, its dynamic particles are
