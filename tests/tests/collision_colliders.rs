@@ -12,6 +12,7 @@
 mod distance;
 
 use glam::{DQuat, DVec3};
+use nucleus_collision::shapes::segment_enters_box;
 use nucleus_core::Simulation;
 use nucleus_tests::*;
 
@@ -374,24 +375,6 @@ fn cloth_on_collider(collider: &str, y: f64) -> Simulation {
     simulation(&text, &[])
 }
 
-/// Whether the segment `p–q` has a point strictly inside the box of half extents `h` centred
-/// at the origin (slab test).
-fn segment_enters_box(p: DVec3, q: DVec3, h: f64) -> bool {
-    let (mut lo, mut hi) = (0.0f64, 1.0f64);
-    for k in 0..3 {
-        let d = q[k] - p[k];
-        if d == 0.0 {
-            if p[k].abs() >= h {
-                return false;
-            }
-            continue;
-        }
-        let (a, b) = ((-h - p[k]) / d, (h - p[k]) / d);
-        (lo, hi) = (lo.max(a.min(b)), hi.min(a.max(b)));
-    }
-    lo < hi
-}
-
 /// A cloth started through a box — the box's edges poking through its faces, the cloth's
 /// edges cutting its corners — is untangled: the vertices inside leave at the push-out speed,
 /// and an edge or face that starts in the box is let cross the box's corners and edges and is
@@ -413,7 +396,7 @@ fn a_cloth_started_through_a_box_is_untangled_from_it() {
         triangles(sim, "cloth")
             .iter()
             .flat_map(|t| (0..3).map(move |k| (t[k], t[(k + 1) % 3])))
-            .filter(|&(p, q)| segment_enters_box(turn * p, turn * q, 0.25))
+            .filter(|&(p, q)| segment_enters_box(turn * p, turn * q, DVec3::splat(0.25)))
             .count()
     };
     // Each edge twice (in its two triangles) but on the boundary.

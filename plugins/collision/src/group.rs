@@ -1995,14 +1995,7 @@ impl CollisionGroup {
         if cand.kind.is_feature() {
             let pose0 = self.pose0[self.feature_collider(cand) as usize];
             let start = self.feature_distance(cand, x0, pose0);
-            if start < 0.0
-                || self.starts_in_box(cand, x0)
-                || self.starts_impaled(cand, x0)
-                || self.slides_off_axis(cand, reach, x0)
-            {
-                // In a box, or on the wrong side of its corner or edge: its way out crosses
-                // the box's features, which a contact or the fail-safe would forbid. The final
-                // projections push it out (`project_features_out`).
+            if self.leaves_through_feature(cand, start, reach, x0) {
                 return None;
             }
             if thickness_scale > 0.0 {
@@ -2333,12 +2326,16 @@ impl CollisionGroup {
             if !cand.kind.is_feature() {
                 continue;
             }
-            if self.starts_impaled(*cand, x0) || self.slides_off_axis(*cand, self.reach[k], x0) {
+            let c = self.feature_collider(*cand) as usize;
+            // The distance at the substep's start, taken only where it is needed.
+            let start = || self.feature_distance(*cand, x0, self.pose0[c]);
+            if self.starts_impaled(*cand, x0)
+                || (!self.impaled.is_empty() && self.slides_off_axis(*cand, start(), self.reach[k]))
+            {
                 let left = self.push_off_axis(*cand, self.reach[k], x0, x, inv_mass);
                 worst = worst.max(left);
                 continue;
             }
-            let c = self.feature_collider(*cand) as usize;
             let side = self.feature_side(*cand, x, self.pose1[c]);
             let (ids, w, out) = (side.ids, side.w, side.out());
             let dist = out.length();
@@ -2346,8 +2343,7 @@ impl CollisionGroup {
             if signed >= self.reach[k] || dist < 1e-12 || !dist.is_finite() {
                 continue;
             }
-            let start = self.feature_distance(*cand, x0, self.pose0[c]);
-            let target = push_out_reach(self.reach[k], start, self.push_out());
+            let target = push_out_reach(self.reach[k], start(), self.push_out());
             let deficit = target - signed;
             if deficit <= 0.0 {
                 continue;
@@ -2579,20 +2575,40 @@ impl CollisionGroup {
     }
 
     /// Whether a capsule feature candidate's primitive belongs to an object impaled on that
-    /// capsule this substep and starts inside it (closer to the feature than `reach`): it
-    /// slides off along the axis ([`Self::push_off_axis`]) instead of leaving it radially.
-    fn slides_off_axis(&self, cand: Candidate, reach: f64, x0: &[DVec3]) -> bool {
-        if self.impaled.is_empty() {
+    /// capsule this substep and starts inside it (its distance from the feature at the
+    /// substep's start, `start`, short of `reach`): it slides off along the axis
+    /// ([`Self::push_off_axis`]) instead of leaving it radially.
+    fn slides_off_axis(&self, cand: Candidate, start: f64, reach: f64) -> bool {
+        if self.impaled.is_empty() || start.is_nan() || start >= reach {
             return false;
         }
-        let c = self.feature_collider(cand);
         let b = cand.pair[1] as usize;
         let object = match cand.kind {
             PairKind::FeatureFace => self.face_obj[b],
             _ => self.edge_obj[b],
         };
-        self.impaled.contains(&(c, object))
-            && self.feature_distance(cand, x0, self.pose0[c as usize]) < reach
+        self.impaled
+            .contains(&(self.feature_collider(cand), object))
+    }
+
+    /// Whether a feature candidate, `start` (m, signed: [`Self::feature_side`]) from its
+    /// feature at the substep's start, leaves its collider across the feature, so that a
+    /// contact or the fail-safe, which forbid that crossing, must leave it to the final
+    /// projections ([`Self::project_features_out`]): on the wrong side of a box's corner or
+    /// edge, or in the box ([`Self::starts_in_box`]); impaled on a capsule's axis
+    /// ([`Self::starts_impaled`]) or sliding off it with an impaled object
+    /// ([`Self::slides_off_axis`]).
+    fn leaves_through_feature(
+        &self,
+        cand: Candidate,
+        start: f64,
+        reach: f64,
+        x0: &[DVec3],
+    ) -> bool {
+        start < 0.0
+            || self.starts_in_box(cand, x0)
+            || self.starts_impaled(cand, x0)
+            || self.slides_off_axis(cand, start, reach)
     }
 
     /// Whether vertex primitive `v`'s object is impaled on collider `c` this substep.
