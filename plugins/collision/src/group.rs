@@ -1993,8 +1993,19 @@ impl CollisionGroup {
         let track = |i: u32| track(x0, x, i);
         let mut d = thickness_scale * reach;
         if cand.kind.is_feature() {
-            let pose0 = self.pose0[self.feature_collider(cand) as usize];
-            let start = self.feature_distance(cand, x0, pose0);
+            let c = self.feature_collider(cand) as usize;
+            // The contact's push-out needs the distance at the substep's start; the
+            // exemption needs it only for a box's feature (its sign) or while an object is
+            // impaled. Elsewhere, in the fail-safe's test, any distance outside (0) decides
+            // the same, and the query is not taken.
+            let start = if thickness_scale > 0.0
+                || matches!(self.colliders[c].shape, Shape::Box { .. })
+                || !self.impaled.is_empty()
+            {
+                self.feature_distance(cand, x0, self.pose0[c])
+            } else {
+                0.0
+            };
             if self.leaves_through_feature(cand, start, reach, x0) {
                 return None;
             }
@@ -2449,7 +2460,11 @@ impl CollisionGroup {
         let pierces = |e: usize, f: u32| {
             let [p, q] = self.feat_edges[e].1.map(|v| pose0.apply(v));
             let t = self.faces[f as usize].map(|i| x0[i as usize]);
-            distance::segment_triangle_intersect(p, q, t)
+            // Boxes apart (closed), no meeting: the exact test only where it can say yes.
+            let (lo, hi) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
+            p.min(q).cmple(hi).all()
+                && lo.cmple(p.max(q)).all()
+                && distance::segment_triangle_intersect(p, q, t)
         };
         match cand.kind {
             PairKind::FeatureEdgeEdge => self.edge_faces[b]
