@@ -205,6 +205,13 @@ pub struct CollisionGroup {
     /// from `x_ref`.
     separation: Vec<Separation>,
     separation_moved: Vec<f64>,
+    /// Each collider or feature candidate's primitive at the substep's start, once taken
+    /// ([`Self::start_of`]; [`StartOf::UNKNOWN`] before). Only those kinds have one: the
+    /// sorted list holds the vertex–collider pairs first and the feature pairs last, so
+    /// `start` holds the first `start_split[0]` candidates' and then those from
+    /// `start_split[1]` on ([`Self::start_slot`]), not a slot for every self pair.
+    start: Vec<StartOf>,
+    start_split: [usize; 2],
     /// Whether each candidate's separation was taken ahead of its visit, over the team
     /// ([`Self::take_separations_ahead`]): positions may have moved since, so a pass that
     /// finds it no proof takes it again before testing the pair.
@@ -227,6 +234,8 @@ pub struct CollisionGroup {
     old_candidates: Vec<Candidate>,
     old_separation: Vec<Separation>,
     old_separation_moved: Vec<f64>,
+    old_start: Vec<StartOf>,
+    old_start_split: [usize; 2],
     carry_moved: Vec<f64>,
     /// The end positions the last broad phase saw, and how far each particle has moved from
     /// them since (m), kept current through a pass: a pair certainly apart at `x_ref` that has
@@ -332,6 +341,56 @@ fn edge_faces(edges: &[[u32; 2]], faces: &[[u32; 3]]) -> Vec<[u32; 2]> {
         }
     }
     out
+}
+
+/// How a collider or feature candidate's primitive leaves its collider in this substep, if
+/// it started inside ([`CollisionGroup::leaves_through_feature`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Leaves {
+    /// As a contact and the fail-safe allow: out of the collider the way it came, or not
+    /// inside at all.
+    Normally,
+    /// Through a box's corner or edge, or out of the box's interior.
+    ThroughBox,
+    /// Off a capsule's axis, over its end ([`CollisionGroup::push_off_axis`]).
+    OffAxis,
+}
+
+/// A collider or feature candidate's primitive at the substep's start, taken the first time
+/// the substep needs it and kept until the next ([`CollisionGroup::start_of`]): everything
+/// in it depends only on `x0`, the collider's start pose, the candidate's reach and the
+/// objects impaled this substep, so a pass, the final projections and the push-out's record
+/// read it instead of taking it again.
+#[derive(Clone, Copy, Debug)]
+struct StartOf {
+    /// Its signed distance (m) from the collider or feature ([`CollisionGroup::feature_side`],
+    /// `Shape::signed_distance`); NaN until taken.
+    distance: f64,
+    /// For a feature candidate, how it leaves ([`Leaves::Normally`] for a vertex–collider
+    /// pair).
+    leaves: Leaves,
+}
+
+impl StartOf {
+    const UNKNOWN: StartOf = StartOf {
+        distance: f64::NAN,
+        leaves: Leaves::Normally,
+    };
+}
+
+/// Where candidate `k`'s [`StartOf`] is kept, with the candidates split at
+/// `[colliders, features]` (the vertex–collider pairs before the first, the feature pairs
+/// from the second on: the order of [`PairKind`]); `None` for the pairs between, which have
+/// none.
+#[inline]
+fn start_slot([colliders, features]: [usize; 2], k: usize) -> Option<usize> {
+    if k < colliders {
+        Some(k)
+    } else if k >= features {
+        Some(colliders + (k - features))
+    } else {
+        None
+    }
 }
 
 /// A feature candidate's primitive against its feature ([`CollisionGroup::feature_side`]).
@@ -605,6 +664,8 @@ impl CollisionGroup {
             cand_ids: Vec::new(),
             separation: Vec::new(),
             separation_moved: Vec::new(),
+            start: Vec::new(),
+            start_split: [0, 0],
             taken_ahead: Vec::new(),
             separations_unknown: false,
             touched: Vec::new(),
@@ -613,6 +674,8 @@ impl CollisionGroup {
             old_candidates: Vec::new(),
             old_separation: Vec::new(),
             old_separation_moved: Vec::new(),
+            old_start: Vec::new(),
+            old_start_split: [0, 0],
             carry_moved: Vec::new(),
             x_ref: vec![DVec3::ZERO; n],
             moved: vec![0.0; n],
@@ -1340,6 +1403,8 @@ impl CollisionGroup {
             std::mem::swap(&mut self.candidates, &mut self.old_candidates);
             std::mem::swap(&mut self.separation, &mut self.old_separation);
             std::mem::swap(&mut self.separation_moved, &mut self.old_separation_moved);
+            std::mem::swap(&mut self.start, &mut self.old_start);
+            std::mem::swap(&mut self.start_split, &mut self.old_start_split);
             self.carry_moved.clear();
             self.carry_moved
                 .extend(self.x_ref.iter().zip(x).map(|(&r, &p)| (p - r).length()));
@@ -1359,13 +1424,22 @@ impl CollisionGroup {
             self.cand_ids.push(ids);
         }
         self.restart_passes(x);
+        let colliders = (self.candidates).partition_point(|c| c.kind == PairKind::Collider);
+        let features = (self.candidates).partition_point(|c| !c.kind.is_feature());
+        self.start_split = [colliders, features];
+        self.start.clear();
+        self.start.resize(
+            colliders + (self.candidates.len() - features),
+            StartOf::UNKNOWN,
+        );
         if carry {
             self.carry_separations();
         }
     }
 
-    /// Gives every candidate that was a candidate before the last [`Self::adopt`] its
-    /// separation from then, as a certificate only: taken when its particles had moved at
+    /// Gives every candidate that was a candidate before the last [`Self::adopt`] its start
+    /// ([`Self::start_of`], the same substep's), and its separation from then, as a
+    /// certificate only: taken when its particles had moved at
     /// most `m0` from the old `x_ref`, which they have now left by at most `m1`
     /// (`carry_moved`), so they have moved at most `m0 + m1` since, and the new `x_ref` is
     /// where they are now. A refresh after a few primitives left their boxes then costs the
@@ -1379,6 +1453,13 @@ impl CollisionGroup {
                 std::cmp::Ordering::Less => i += 1,
                 std::cmp::Ordering::Greater => j += 1,
                 std::cmp::Ordering::Equal => {
+                    let (from, to) = (
+                        start_slot(self.old_start_split, i),
+                        start_slot(self.start_split, j),
+                    );
+                    if let (Some(from), Some(to)) = (from, to) {
+                        self.start[to] = self.old_start[from];
+                    }
                     let s = self.old_separation[i];
                     if !s.d0.is_nan() {
                         let m1 = self.cand_ids[j]
@@ -1976,41 +2057,29 @@ impl CollisionGroup {
         }
     }
 
-    /// The contact of a candidate if the pair comes within `thickness_scale × reach` (its
+    /// The contact of candidate `k` if the pair comes within `thickness_scale × reach` (its
     /// contact distance) over `[x0, x]` (`thickness_scale = 0`: the pair crosses; for a
     /// collider's feature, it crosses the collider's core). `known`: the pair's separation over
     /// these very positions, if just taken ([`Self::take_separation`]), so it is not taken
     /// twice.
     fn detect(
-        &self,
-        cand: Candidate,
-        reach: f64,
+        &mut self,
+        k: usize,
         x0: &[DVec3],
         x: &[DVec3],
         thickness_scale: f64,
         known: Option<Separation>,
     ) -> Option<Contact> {
+        let (cand, reach) = (self.candidates[k], self.reach[k]);
         let track = |i: u32| track(x0, x, i);
         let mut d = thickness_scale * reach;
+        let start = self.start_of(k, x0);
         if cand.kind.is_feature() {
-            let c = self.feature_collider(cand) as usize;
-            // The contact's push-out needs the distance at the substep's start; the
-            // exemption needs it only for a box's feature (its sign) or while an object is
-            // impaled. Elsewhere, in the fail-safe's test, any distance outside (0) decides
-            // the same, and the query is not taken.
-            let start = if thickness_scale > 0.0
-                || matches!(self.colliders[c].shape, Shape::Box { .. })
-                || !self.impaled.is_empty()
-            {
-                self.feature_distance(cand, x0, self.pose0[c])
-            } else {
-                0.0
-            };
-            if self.leaves_through_feature(cand, start, reach, x0) {
+            if start.leaves != Leaves::Normally {
                 return None;
             }
             if thickness_scale > 0.0 {
-                d = push_out_reach(d, start, self.push_out());
+                d = push_out_reach(d, start.distance, self.push_out());
             }
         }
         let [a, b] = cand.pair;
@@ -2033,12 +2102,12 @@ impl CollisionGroup {
                 let (pose0, pose1) = (self.pose0[c], self.pose1[c]);
                 let q0 = pose0.inverse_apply(x0[p]);
                 let q1 = pose1.inverse_apply(x[p]);
-                if self.impaled_vertex(c, v) && col.shape.signed_distance(q0).0 < reach {
+                if self.impaled_vertex(c, v) && start.distance < reach {
                     // Slides off the axis in the final projection instead.
                     return None;
                 }
                 let d = if thickness_scale > 0.0 {
-                    push_out_reach(d, col.shape.signed_distance(q0).0, self.push_out())
+                    push_out_reach(d, start.distance, self.push_out())
                 } else {
                     d
                 };
@@ -2232,7 +2301,7 @@ impl CollisionGroup {
                     continue;
                 }
             }
-            let Some(mut contact) = self.detect(cand, d, x0, x, 1.0, known) else {
+            let Some(mut contact) = self.detect(k, x0, x, 1.0, known) else {
                 continue;
             };
             let ids = contact.ids;
@@ -2275,33 +2344,27 @@ impl CollisionGroup {
 
     /// Pushes every vertex out of the analytic colliders (exact signed-distance projection at
     /// the end of the substep).
-    fn project_out_of_colliders(&self, x0: &[DVec3], x: &mut [DVec3], inv_mass: &[f64]) {
-        for cand in &self.candidates {
-            let Some((c, p, r)) = self.dynamic_collider_pair(*cand, inv_mass) else {
+    fn project_out_of_colliders(&mut self, x0: &[DVec3], x: &mut [DVec3], inv_mass: &[f64]) {
+        for k in 0..self.candidates.len() {
+            let Some((c, p, r)) = self.dynamic_collider_pair(self.candidates[k], inv_mass) else {
                 continue;
             };
-            let col = &self.colliders[c];
-            if self.impaled_vertex(c, cand.pair[1] as usize) {
-                let start = col
-                    .shape
-                    .signed_distance(self.pose0[c].inverse_apply(x0[p]));
-                if start.0 < r {
-                    if let Some(exit) = self.axis_exit(c, self.axis_parameter(c, x0[p])) {
-                        self.slide_off_axis(exit, p, r, x0, x);
-                    }
-                    continue;
+            if self.impaled_vertex(c, self.candidates[k].pair[1] as usize)
+                && self.start_of(k, x0).distance < r
+            {
+                if let Some(exit) = self.axis_exit(c, self.axis_parameter(c, x0[p])) {
+                    self.slide_off_axis(exit, p, r, x0, x);
                 }
+                continue;
             }
+            let col = &self.colliders[c];
             let pose = self.pose1[c];
             let q = pose.inverse_apply(x[p]);
             let (phi, n) = col.shape.signed_distance(q);
             if phi >= r {
                 continue;
             }
-            let start = col
-                .shape
-                .signed_distance(self.pose0[c].inverse_apply(x0[p]))
-                .0;
+            let start = self.start_of(k, x0).distance;
             let r = push_out_reach(r, start, self.push_out());
             if phi < r {
                 x[p] = pose.apply(q + (r - phi) * n);
@@ -2321,7 +2384,7 @@ impl CollisionGroup {
     /// whose closest points coincide (no direction) is left to the fail-safe. Pushes that
     /// share particles undo each other a little, so the sweep is repeated (Gauss-Seidel, at
     /// most [`FEATURE_SWEEPS`] times) until no primitive is deeper than 1e-9 of its reach.
-    fn project_features_out(&self, x0: &[DVec3], x: &mut [DVec3], inv_mass: &[f64]) {
+    fn project_features_out(&mut self, x0: &[DVec3], x: &mut [DVec3], inv_mass: &[f64]) {
         for _ in 0..FEATURE_SWEEPS {
             if self.project_features_out_once(x0, x, inv_mass) <= 1e-9 {
                 return;
@@ -2331,30 +2394,33 @@ impl CollisionGroup {
 
     /// One sweep of [`Self::project_features_out`]; returns the largest deficit it found,
     /// relative to the pair's reach.
-    fn project_features_out_once(&self, x0: &[DVec3], x: &mut [DVec3], inv_mass: &[f64]) -> f64 {
+    fn project_features_out_once(
+        &mut self,
+        x0: &[DVec3],
+        x: &mut [DVec3],
+        inv_mass: &[f64],
+    ) -> f64 {
         let mut worst: f64 = 0.0;
-        for (k, cand) in self.candidates.iter().enumerate() {
+        for k in 0..self.candidates.len() {
+            let cand = self.candidates[k];
             if !cand.kind.is_feature() {
                 continue;
             }
-            let c = self.feature_collider(*cand) as usize;
-            // The distance at the substep's start, taken only where it is needed.
-            let start = || self.feature_distance(*cand, x0, self.pose0[c]);
-            if self.starts_impaled(*cand, x0)
-                || (!self.impaled.is_empty() && self.slides_off_axis(*cand, start(), self.reach[k]))
-            {
-                let left = self.push_off_axis(*cand, self.reach[k], x0, x, inv_mass);
+            let c = self.feature_collider(cand) as usize;
+            let start = self.start_of(k, x0);
+            if start.leaves == Leaves::OffAxis {
+                let left = self.push_off_axis(cand, self.reach[k], x0, x, inv_mass);
                 worst = worst.max(left);
                 continue;
             }
-            let side = self.feature_side(*cand, x, self.pose1[c]);
+            let side = self.feature_side(cand, x, self.pose1[c]);
             let (ids, w, out) = (side.ids, side.w, side.out());
             let dist = out.length();
             let signed = if side.inside { -dist } else { dist };
             if signed >= self.reach[k] || dist < 1e-12 || !dist.is_finite() {
                 continue;
             }
-            let target = push_out_reach(self.reach[k], start(), self.push_out());
+            let target = push_out_reach(self.reach[k], start.distance, self.push_out());
             let deficit = target - signed;
             if deficit <= 0.0 {
                 continue;
@@ -2456,9 +2522,9 @@ impl CollisionGroup {
             return false;
         }
         let (a, b) = (cand.pair[0] as usize, cand.pair[1] as usize);
-        let pose0 = self.pose0[c];
         let pierces = |e: usize, f: u32| {
-            let [p, q] = self.feat_edges[e].1.map(|v| pose0.apply(v));
+            // The axis at the start pose ([`Self::pose_colliders`]).
+            let [p, q, _, _] = self.feat_edge_tracks[e];
             let t = self.faces[f as usize].map(|i| x0[i as usize]);
             // Boxes apart (closed), no meeting: the exact test only where it can say yes.
             let (lo, hi) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
@@ -2574,7 +2640,8 @@ impl CollisionGroup {
     /// around the axis and stretch the cloth around it.
     fn find_impaled(&mut self, x0: &[DVec3]) {
         self.impaled.clear();
-        for k in 0..self.candidates.len() {
+        // The feature pairs come last ([`Self::start_split`]).
+        for k in self.start_split[1]..self.candidates.len() {
             let cand = self.candidates[k];
             if cand.kind != PairKind::FeatureEdgeEdge || !self.starts_impaled(cand, x0) {
                 continue;
@@ -2606,11 +2673,11 @@ impl CollisionGroup {
             .contains(&(self.feature_collider(cand), object))
     }
 
-    /// Whether a feature candidate, `start` (m, signed: [`Self::feature_side`]) from its
-    /// feature at the substep's start, leaves its collider across the feature, so that a
-    /// contact or the fail-safe, which forbid that crossing, must leave it to the final
-    /// projections ([`Self::project_features_out`]): on the wrong side of a box's corner or
-    /// edge, or in the box ([`Self::starts_in_box`]); impaled on a capsule's axis
+    /// How a feature candidate, `start` (m, signed: [`Self::feature_side`]) from its feature
+    /// at the substep's start, leaves its collider: across the feature, so that a contact or
+    /// the fail-safe, which forbid that crossing, must leave it to the final projections
+    /// ([`Self::project_features_out`]), when it is on the wrong side of a box's corner or
+    /// edge, or in the box ([`Self::starts_in_box`]), or impaled on a capsule's axis
     /// ([`Self::starts_impaled`]) or sliding off it with an impaled object
     /// ([`Self::slides_off_axis`]).
     fn leaves_through_feature(
@@ -2619,11 +2686,50 @@ impl CollisionGroup {
         start: f64,
         reach: f64,
         x0: &[DVec3],
-    ) -> bool {
-        start < 0.0
-            || self.starts_in_box(cand, x0)
-            || self.starts_impaled(cand, x0)
-            || self.slides_off_axis(cand, start, reach)
+    ) -> Leaves {
+        if self.starts_impaled(cand, x0) || self.slides_off_axis(cand, start, reach) {
+            Leaves::OffAxis
+        } else if start < 0.0 || self.starts_in_box(cand, x0) {
+            Leaves::ThroughBox
+        } else {
+            Leaves::Normally
+        }
+    }
+
+    /// Candidate `k`'s primitive at the substep's start ([`StartOf`]), taken now if the
+    /// substep has not yet: for a vertex–collider pair, the vertex's signed distance from the
+    /// collider; for a feature pair, its primitive's from the feature
+    /// ([`Self::feature_distance`]) and how it leaves ([`Self::leaves_through_feature`]).
+    /// [`StartOf::UNKNOWN`] for the other kinds. It must not be asked before the substep's
+    /// impaled objects are found ([`Self::find_impaled`]).
+    fn start_of(&mut self, k: usize, x0: &[DVec3]) -> StartOf {
+        let Some(slot) = start_slot(self.start_split, k) else {
+            return StartOf::UNKNOWN;
+        };
+        let known = self.start[slot];
+        if !known.distance.is_nan() {
+            return known;
+        }
+        let cand = self.candidates[k];
+        let taken = if cand.kind == PairKind::Collider {
+            let (c, v) = (cand.pair[0] as usize, cand.pair[1] as usize);
+            let q0 = self.pose0[c].inverse_apply(x0[self.verts[v] as usize]);
+            StartOf {
+                distance: self.colliders[c].shape.signed_distance(q0).0,
+                leaves: Leaves::Normally,
+            }
+        } else if cand.kind.is_feature() {
+            let c = self.feature_collider(cand) as usize;
+            let distance = self.feature_distance(cand, x0, self.pose0[c]);
+            StartOf {
+                distance,
+                leaves: self.leaves_through_feature(cand, distance, self.reach[k], x0),
+            }
+        } else {
+            return StartOf::UNKNOWN;
+        };
+        self.start[slot] = taken;
+        taken
     }
 
     /// Whether vertex primitive `v`'s object is impaled on collider `c` this substep.
@@ -2686,12 +2792,12 @@ impl CollisionGroup {
                 if self.impaled_vertex(c, cand.pair[1] as usize) {
                     continue;
                 }
-                let col = &self.colliders[c];
-                let (pose0, pose1) = (self.pose0[c], self.pose1[c]);
-                let start = col.shape.signed_distance(pose0.inverse_apply(x0[p])).0;
+                let start = self.start_of(k, x0).distance;
                 if !short_of(start, r) {
                     continue;
                 }
+                let col = &self.colliders[c];
+                let (pose0, pose1) = (self.pose0[c], self.pose1[c]);
                 let q = pose1.inverse_apply(x[p]);
                 let (end, n_local) = col.shape.signed_distance(q);
                 let predicted = col
@@ -2712,7 +2818,7 @@ impl CollisionGroup {
             } else if cand.kind.is_feature() {
                 let c = self.feature_collider(cand) as usize;
                 let (pose0, pose1) = (self.pose0[c], self.pose1[c]);
-                let start = self.feature_distance(cand, x0, pose0);
+                let start = self.start_of(k, x0).distance;
                 let reach = self.reach[k];
                 if !short_of(start, reach) {
                     continue;
@@ -2859,7 +2965,7 @@ impl CollisionGroup {
                 {
                     continue;
                 }
-                let Some(c) = self.detect(cand, self.reach[k], x0, x, 0.0, None) else {
+                let Some(c) = self.detect(k, x0, x, 0.0, None) else {
                     continue;
                 };
                 crossing += 1;
@@ -3079,6 +3185,8 @@ impl ConstraintGroup for CollisionGroup {
         }
         self.within_substep = true;
         self.find_impaled(p.x0);
+        // A new start: what was taken of the last one no longer holds.
+        self.start.fill(StartOf::UNKNOWN);
         self.over_budget_error(p.x0, p.x)
     }
 
@@ -3411,10 +3519,11 @@ mod tests {
             shifted.pose_colliders(0.0, 0.0);
             shifted.broad_phase(&x0, &x, &inv_mass, team);
             plain.broad_phase(&x0, &x, &inv_mass, team);
-            for (c, d) in plain.candidates.iter().zip(&plain.reach) {
-                if plain.detect(*c, *d, &x0, &x, 1.0, None).is_none() {
+            for k in 0..plain.candidates.len() {
+                if plain.detect(k, &x0, &x, 1.0, None).is_none() {
                     continue;
                 }
+                let (c, d) = (&plain.candidates[k], &plain.reach[k]);
                 checked += 1;
                 let at = shifted.candidates.binary_search(c);
                 let at = at.unwrap_or_else(|_| panic!("round {round}: {c:?} missing"));
@@ -3486,6 +3595,96 @@ mod tests {
             contacts > 100,
             "only {contacts} contacts: nothing to get wrong"
         );
+    }
+
+    /// The kept starts ([`CollisionGroup::start_of`]) live in the sorted list's first and last
+    /// runs: the vertex–collider pairs must sort before every other kind and the feature pairs
+    /// after.
+    #[test]
+    fn collider_pairs_sort_first_and_feature_pairs_last() {
+        use PairKind::*;
+        let kinds = [
+            Collider,
+            VertexVertex,
+            VertexEdge,
+            VertexFace,
+            EdgeEdge,
+            FeatureFace,
+            FeaturePointEdge,
+            FeatureEdgeEdge,
+        ];
+        for a in kinds {
+            for b in kinds {
+                if a == Collider && b != Collider {
+                    assert!(a < b, "{a:?} before {b:?}");
+                }
+                if a.is_feature() && !b.is_feature() {
+                    assert!(a > b, "{a:?} after {b:?}");
+                }
+            }
+        }
+        let split = [2, 5];
+        let slots: Vec<_> = (0..7).map(|k| start_slot(split, k)).collect();
+        assert_eq!(
+            slots,
+            [Some(0), Some(1), None, None, None, Some(2), Some(3)]
+        );
+    }
+
+    /// What the passes keep of a collider or feature pair's start (its distance from the
+    /// collider or feature, and how it leaves) is what it would take afresh, after refreshes
+    /// within the substep move the pairs to new places in the list: over rounds of random
+    /// crumpling, every kept start is checked against one taken again, bit for bit.
+    #[test]
+    fn the_starts_kept_over_refreshes_are_those_taken_afresh() {
+        let (rest, edges, tris) = cloth(14);
+        let [mut g, _] = groups(&rest, &edges, &tris);
+        let inv_mass = vec![1.0; rest.len()];
+        let x0: Vec<DVec3> = rest.iter().map(|&p| DVec3::from(p)).collect();
+        let mut x = x0.clone();
+        let team = TeamRef::serial();
+        g.h = 1e-2;
+        g.broad_phase(&x0, &x, &inv_mass, team);
+        g.within_substep = true;
+        let mut rng = Rng(5);
+        let (mut carried, mut checked) = (0, 0);
+        for round in 0..40 {
+            let share = if round % 10 == 9 { 0.6 } else { 0.08 };
+            for p in x.iter_mut() {
+                if rng.next_f64() < share {
+                    *p += rng.vec3(0.015);
+                }
+            }
+            if g.refresh_escaped(&x0, &x, &inv_mass, team) {
+                carried += g.start.iter().filter(|s| !s.distance.is_nan()).count();
+            }
+            g.resolve_pass(&x0, &mut x, &inv_mass, team);
+            for k in 0..g.candidates.len() {
+                let kind = g.candidates[k].kind;
+                let Some(slot) = start_slot(g.start_split, k) else {
+                    assert!(kind != PairKind::Collider && !kind.is_feature(), "{kind:?}");
+                    continue;
+                };
+                assert!(kind == PairKind::Collider || kind.is_feature(), "{kind:?}");
+                let kept = g.start[slot];
+                if kept.distance.is_nan() {
+                    continue;
+                }
+                g.start[slot] = StartOf::UNKNOWN;
+                let fresh = g.start_of(k, &x0);
+                assert_eq!(
+                    (kept.distance.to_bits(), kept.leaves),
+                    (fresh.distance.to_bits(), fresh.leaves),
+                    "round {round}: candidate {k} ({kind:?})"
+                );
+                checked += 1;
+            }
+        }
+        assert!(
+            carried > 100,
+            "only {carried} starts carried over a refresh"
+        );
+        assert!(checked > 1000, "only {checked} starts checked");
     }
 
     #[test]
