@@ -1410,19 +1410,16 @@ impl CollisionGroup {
                 .extend(self.x_ref.iter().zip(x).map(|(&r, &p)| (p - r).length()));
         }
         self.candidates.clear();
+        self.candidates.extend(pending.iter().map(|&(c, _)| c));
         self.reach.clear();
-        for &(c, d) in &pending {
-            self.candidates.push(c);
-            self.reach.push(d);
-        }
+        self.reach.extend(pending.iter().map(|&(_, d)| d));
         self.pending = pending;
         self.stack = stack;
         self.stats.candidates = self.stats.candidates.max(self.candidates.len());
-        self.cand_ids.clear();
-        for k in 0..self.candidates.len() {
-            let ids = self.candidate_ids(self.candidates[k]);
-            self.cand_ids.push(ids);
-        }
+        let mut cand_ids = std::mem::take(&mut self.cand_ids);
+        cand_ids.clear();
+        cand_ids.extend(self.candidates.iter().map(|&c| self.candidate_ids(c)));
+        self.cand_ids = cand_ids;
         self.restart_passes(x);
         let colliders = (self.candidates).partition_point(|c| c.kind == PairKind::Collider);
         let features = (self.candidates).partition_point(|c| !c.kind.is_feature());
