@@ -344,7 +344,7 @@ fn edge_faces(edges: &[[u32; 2]], faces: &[[u32; 3]]) -> Vec<[u32; 2]> {
 }
 
 /// How a collider or feature candidate's primitive leaves its collider in this substep, if
-/// it started inside ([`CollisionGroup::leaves_through_feature`]).
+/// it started inside ([`CollisionGroup::start_of`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Leaves {
     /// As a contact and the fail-safe allow: out of the collider the way it came, or not
@@ -352,7 +352,8 @@ enum Leaves {
     Normally,
     /// Through a box's corner or edge, or out of the box's interior.
     ThroughBox,
-    /// Off a capsule's axis, over its end ([`CollisionGroup::push_off_axis`]).
+    /// Off a capsule's axis, over its end, with an object impaled on it
+    /// ([`CollisionGroup::push_off_axis`], [`CollisionGroup::slide_off_axis`]).
     OffAxis,
 }
 
@@ -366,8 +367,7 @@ struct StartOf {
     /// Its signed distance (m) from the collider or feature ([`CollisionGroup::feature_side`],
     /// `Shape::signed_distance`); NaN until taken.
     distance: f64,
-    /// For a feature candidate, how it leaves ([`Leaves::Normally`] for a vertex–collider
-    /// pair).
+    /// How it leaves.
     leaves: Leaves,
 }
 
@@ -1421,14 +1421,6 @@ impl CollisionGroup {
         cand_ids.extend(self.candidates.iter().map(|&c| self.candidate_ids(c)));
         self.cand_ids = cand_ids;
         self.restart_passes(x);
-        let colliders = (self.candidates).partition_point(|c| c.kind == PairKind::Collider);
-        let features = (self.candidates).partition_point(|c| !c.kind.is_feature());
-        self.start_split = [colliders, features];
-        self.start.clear();
-        self.start.resize(
-            colliders + (self.candidates.len() - features),
-            StartOf::UNKNOWN,
-        );
         if carry {
             self.carry_separations();
         }
@@ -1742,7 +1734,7 @@ impl CollisionGroup {
     }
 
     /// Sets the passes' state up for the current candidates: no separation known yet, no
-    /// contact.
+    /// start taken ([`Self::start_of`]), no contact.
     fn restart_passes(&mut self, x: &[DVec3]) {
         let n = self.x_ref.len();
         self.x_ref.copy_from_slice(&x[..n]);
@@ -1752,6 +1744,14 @@ impl CollisionGroup {
             .resize(self.candidates.len(), Separation::UNKNOWN);
         self.separation_moved.clear();
         self.separation_moved.resize(self.candidates.len(), 0.0);
+        let colliders = (self.candidates).partition_point(|c| c.kind == PairKind::Collider);
+        let features = (self.candidates).partition_point(|c| !c.kind.is_feature());
+        self.start_split = [colliders, features];
+        self.start.clear();
+        self.start.resize(
+            colliders + (self.candidates.len() - features),
+            StartOf::UNKNOWN,
+        );
         self.taken_ahead.clear();
         self.taken_ahead.resize(self.candidates.len(), false);
         self.separations_unknown = true;
@@ -2071,13 +2071,12 @@ impl CollisionGroup {
         let track = |i: u32| track(x0, x, i);
         let mut d = thickness_scale * reach;
         let start = self.start_of(k, x0);
-        if cand.kind.is_feature() {
-            if start.leaves != Leaves::Normally {
-                return None;
-            }
-            if thickness_scale > 0.0 {
-                d = push_out_reach(d, start.distance, self.push_out());
-            }
+        if start.leaves != Leaves::Normally {
+            // The final projections take it out across the feature or along the axis.
+            return None;
+        }
+        if cand.kind.is_feature() && thickness_scale > 0.0 {
+            d = push_out_reach(d, start.distance, self.push_out());
         }
         let [a, b] = cand.pair;
         match cand.kind {
@@ -2099,10 +2098,6 @@ impl CollisionGroup {
                 let (pose0, pose1) = (self.pose0[c], self.pose1[c]);
                 let q0 = pose0.inverse_apply(x0[p]);
                 let q1 = pose1.inverse_apply(x[p]);
-                if self.impaled_vertex(c, v) && start.distance < reach {
-                    // Slides off the axis in the final projection instead.
-                    return None;
-                }
                 let d = if thickness_scale > 0.0 {
                     push_out_reach(d, start.distance, self.push_out())
                 } else {
@@ -2346,9 +2341,8 @@ impl CollisionGroup {
             let Some((c, p, r)) = self.dynamic_collider_pair(self.candidates[k], inv_mass) else {
                 continue;
             };
-            if self.impaled_vertex(c, self.candidates[k].pair[1] as usize)
-                && self.start_of(k, x0).distance < r
-            {
+            let start = self.start_of(k, x0);
+            if start.leaves == Leaves::OffAxis {
                 if let Some(exit) = self.axis_exit(c, self.axis_parameter(c, x0[p])) {
                     self.slide_off_axis(exit, p, r, x0, x);
                 }
@@ -2361,8 +2355,7 @@ impl CollisionGroup {
             if phi >= r {
                 continue;
             }
-            let start = self.start_of(k, x0).distance;
-            let r = push_out_reach(r, start, self.push_out());
+            let r = push_out_reach(r, start.distance, self.push_out());
             if phi < r {
                 x[p] = pose.apply(q + (r - phi) * n);
             }
@@ -2695,8 +2688,10 @@ impl CollisionGroup {
 
     /// Candidate `k`'s primitive at the substep's start ([`StartOf`]), taken now if the
     /// substep has not yet: for a vertex–collider pair, the vertex's signed distance from the
-    /// collider; for a feature pair, its primitive's from the feature
-    /// ([`Self::feature_distance`]) and how it leaves ([`Self::leaves_through_feature`]).
+    /// collider, and off the axis if its object is impaled on it and it starts within its
+    /// contact distance ([`Self::impaled_vertex`]); for a feature pair, its primitive's
+    /// distance from the feature ([`Self::feature_distance`]) and how it leaves
+    /// ([`Self::leaves_through_feature`]).
     /// [`StartOf::UNKNOWN`] for the other kinds. It must not be asked before the substep's
     /// impaled objects are found ([`Self::find_impaled`]).
     fn start_of(&mut self, k: usize, x0: &[DVec3]) -> StartOf {
@@ -2711,10 +2706,13 @@ impl CollisionGroup {
         let taken = if cand.kind == PairKind::Collider {
             let (c, v) = (cand.pair[0] as usize, cand.pair[1] as usize);
             let q0 = self.pose0[c].inverse_apply(x0[self.verts[v] as usize]);
-            StartOf {
-                distance: self.colliders[c].shape.signed_distance(q0).0,
-                leaves: Leaves::Normally,
-            }
+            let distance = self.colliders[c].shape.signed_distance(q0).0;
+            let leaves = if self.impaled_vertex(c, v) && distance < self.reach[k] {
+                Leaves::OffAxis
+            } else {
+                Leaves::Normally
+            };
+            StartOf { distance, leaves }
         } else if cand.kind.is_feature() {
             let c = self.feature_collider(cand) as usize;
             let distance = self.feature_distance(cand, x0, self.pose0[c]);
@@ -2786,13 +2784,11 @@ impl CollisionGroup {
                 let Some((c, p, r)) = self.dynamic_collider_pair(cand, inv_mass) else {
                     continue;
                 };
-                if self.impaled_vertex(c, cand.pair[1] as usize) {
+                let start = self.start_of(k, x0);
+                if start.leaves == Leaves::OffAxis || !short_of(start.distance, r) {
                     continue;
                 }
-                let start = self.start_of(k, x0).distance;
-                if !short_of(start, r) {
-                    continue;
-                }
+                let start = start.distance;
                 let col = &self.colliders[c];
                 let (pose0, pose1) = (self.pose0[c], self.pose1[c]);
                 let q = pose1.inverse_apply(x[p]);
@@ -3182,8 +3178,6 @@ impl ConstraintGroup for CollisionGroup {
         }
         self.within_substep = true;
         self.find_impaled(p.x0);
-        // A new start: what was taken of the last one no longer holds.
-        self.start.fill(StartOf::UNKNOWN);
         self.over_budget_error(p.x0, p.x)
     }
 
@@ -3384,11 +3378,6 @@ mod tests {
         }
     }
 
-    /// After primitives leave their boxes, the partial refresh keeps every pair a full broad
-    /// phase finds that can touch now, with the same contact distance, in sorted order — over
-    /// rounds of random crumpling in which a few or most vertices move. (A full broad phase
-    /// also lists pairs within a fresh margin of each other; the refresh keeps the older
-    /// boxes of the primitives that stayed in theirs, and lists the pairs within those.)
     #[test]
     fn a_push_gives_only_the_speed_beyond_the_start_and_the_prediction() {
         let h = 0.25;
@@ -3426,6 +3415,11 @@ mod tests {
         assert_eq!(v, DVec3::new(0.0, 0.2, 0.0));
     }
 
+    /// After primitives leave their boxes, the partial refresh keeps every pair a full broad
+    /// phase finds that can touch now, with the same contact distance, in sorted order — over
+    /// rounds of random crumpling in which a few or most vertices move. (A full broad phase
+    /// also lists pairs within a fresh margin of each other; the refresh keeps the older
+    /// boxes of the primitives that stayed in theirs, and lists the pairs within those.)
     #[test]
     fn a_refresh_keeps_every_pair_a_full_broad_phase_finds() {
         let (rest, edges, tris) = cloth(14);
