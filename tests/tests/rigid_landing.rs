@@ -1,6 +1,6 @@
 //! A rigid ball dropped on the ground with `restitution = 0`, through the dynamically loaded
-//! `rigid` and `collision` plugins (`bench/rigid_drop.toml`: an icosphere of 162 particles,
-//! radius 0.11 m, 0.43 kg, its lowest point 0.885 m up). It should land dead.
+//! `rigid` and `collision` plugins (the scene of `bench/rigid_drop.toml`: an icosphere of 162
+//! particles, radius 0.11 m, 0.43 kg, its lowest point 0.885 m up). It should land dead.
 //!
 //! It does not with the kinds' default orders: the contact moves one particle of mass `M/N`
 //! by the whole penetration, shape matching moves the body by about `1/N` of it, and the
@@ -18,37 +18,16 @@ use nucleus_tests::*;
 /// thickness (m).
 const REST: f64 = 0.11 + 0.005;
 
-/// The scene; `rigid_order`: the rigid group's order (`None`: the kind's default).
+/// The bench's scene (`bench/rigid_drop.toml`, so the figures its README gives and these
+/// checks are of one scene) at `substeps`; `rigid_order`: the rigid group's order (`None`:
+/// the kind's default).
 fn scene(substeps: u32, rigid_order: Option<i64>) -> String {
-    let order = rigid_order.map_or(String::new(), |o| format!("order = {o}"));
-    format!(
-        r#"
-[solver]
-frame_rate = 60.0
-frames = 60
-substeps = {substeps}
-gravity = [0.0, -9.81, 0.0]
-
-[[objects]]
-name = "ball"
-mass = 0.43
-[objects.sphere]
-center = [0.0, 1.0, 0.0]
-radius = 0.11
-subdivisions = 2
-
-[[constraints]]
-kind = "rigid"
-objects = ["ball"]
-{order}
-
-[[constraints]]
-kind = "collision"
-params = {{ thickness = 0.005, restitution = 0.0, colliders = [
-  {{ type = "plane", point = [0.0, 0.0, 0.0], normal = [0.0, 1.0, 0.0] }},
-] }}
-"#
-    )
+    let text = include_str!("../../bench/rigid_drop.toml");
+    let rigid = "kind = \"rigid\"\nobjects = [\"ball\"]\n";
+    assert!(text.contains("substeps = 10\n") && text.contains(rigid));
+    let order = rigid_order.map_or(String::new(), |o| format!("order = {o}\n"));
+    text.replace("substeps = 10\n", &format!("substeps = {substeps}\n"))
+        .replace(rigid, &format!("{rigid}{order}"))
 }
 
 /// The ball's centre (its particles weigh the same).
