@@ -6,7 +6,8 @@
 //!    reach their targets, with the velocity that takes them there, in `predict`);
 //! 2. `forces` — `v += h g` for dynamic particles, then every group's `force` stage;
 //! 3. `predict` — `x0 = x; x = x0 + h v` (kinematic particles: `x = target`); without force
-//!    groups, gravity and the prediction are one loop over the particles;
+//!    groups, gravity and the prediction are one loop over the particles; then the pushes and
+//!    kicks are zeroed (kept only when a group takes them: `Stages::TAKES_PUSHES`);
 //! 4. `begin` — every group's `begin_substep`;
 //! 5. `solve` — the schedule: each group's `project`, `importance × iterations` times,
 //!    interleaved by order (paper, Figures 9–13);
@@ -277,6 +278,11 @@ pub struct Particles {
     pub flags: Vec<u32>,
     /// Rest positions (m).
     pub rest: Vec<[f64; 3]>,
+    /// Displacements by constraints against kinematic colliders since the force stage (m),
+    /// one per particle when a group takes them ([`Stages::TAKES_PUSHES`]), else empty.
+    pub pushes: Vec<[f64; 3]>,
+    /// Velocity changes by the same since the force stage (m/s), likewise.
+    pub kicks: Vec<[f64; 3]>,
 }
 
 impl Particles {
@@ -759,6 +765,18 @@ impl Simulation {
         self.force_groups = pick(Stages::FORCE);
         self.begin_groups = pick(Stages::BEGIN_SUBSTEP);
         self.end_groups = pick(Stages::END_SUBSTEP);
+        // The pushes exist only for a scene with a group that reads them: elsewhere the
+        // writers see empty slices and skip them.
+        let n = if pick(Stages::TAKES_PUSHES).is_empty() {
+            0
+        } else {
+            self.particles.x.len()
+        };
+        let p = &mut self.particles;
+        for a in [&mut p.pushes, &mut p.kicks] {
+            a.clear();
+            a.resize(n, [0.0; 3]);
+        }
     }
 
     /// Substep length (s).
@@ -854,9 +872,12 @@ impl Simulation {
         if self.force_groups.is_empty() {
             // Nothing acts between gravity and the prediction: one loop for both.
             self.predict(h, t1, Some(self.gravity_step(h)), team);
+            self.forget_pushes();
             return Ok(());
         }
         self.apply_gravity(h, team);
+        // The force stage reads the kicks the last substep recorded at the velocity level,
+        // then every substep records its own pushes and kicks.
         for k in 0..self.force_groups.len() {
             self.call_group(
                 self.force_groups[k],
@@ -869,7 +890,14 @@ impl Simulation {
             )?;
         }
         self.predict(h, t1, None, team);
+        self.forget_pushes();
         Ok(())
+    }
+
+    /// Zeroes the pushes and kicks (nothing when no group takes them).
+    fn forget_pushes(&mut self) {
+        self.particles.pushes.fill([0.0; 3]);
+        self.particles.kicks.fill([0.0; 3]);
     }
 
     /// For benchmarks and tests that time or inspect one group's stages: the first stages of
@@ -1045,6 +1073,8 @@ impl Simulation {
             pass,
             passes,
             team,
+            pushes: RSliceMut::from_mut_slice(&mut p.pushes),
+            kicks: RSliceMut::from_mut_slice(&mut p.kicks),
         };
         let group = &mut self.groups[g];
         let result = match stage {
@@ -1124,6 +1154,8 @@ impl Simulation {
             pass: 0,
             passes: 1,
             team: TeamRef::serial(),
+            pushes: RSliceMut::from_mut_slice(&mut p.pushes),
+            kicks: RSliceMut::from_mut_slice(&mut p.kicks),
         }
     }
 

@@ -24,12 +24,12 @@ use abi_stable::{
 /// Version of the plugin ABI's *semantics* (the handshake the host checks on top of
 /// abi_stable's layout check). Bump it when the meaning of a field or a call changes while the
 /// layout stays the same; the host refuses plugins whose version it does not support.
-pub const SDK_ABI_VERSION: u32 = 2;
+pub const SDK_ABI_VERSION: u32 = 3;
 
 /// The abi_stable version string of the root module. Its major number is the frozen
 /// layout generation of [`PluginMod`]: it changes only with a breaking layout change, which
 /// also bumps [`SDK_ABI_VERSION`].
-pub const ROOT_MODULE_VERSION: &str = "2.0.0";
+pub const ROOT_MODULE_VERSION: &str = "3.0.0";
 
 // ---------------------------------------------------------------------------------------------
 // Errors
@@ -336,6 +336,18 @@ pub struct SolveContext<'a> {
     pub passes: u32,
     /// The host's thread team, for a group to split a pass over (see [`crate::team`]).
     pub team: crate::team::TeamRef<'a>,
+    /// What constraints against immovable things (kinematic colliders) moved each particle by
+    /// (m), summed since the substep's prediction or since a reader last cleared it; empty
+    /// unless a group of the scene has [`Stages::TAKES_PUSHES`]. A group that moves
+    /// particles against something that cannot move back adds each displacement here when
+    /// the slice is not empty; a group that moves particles as parts of a larger body (a rigid
+    /// body) reads them as pushes on the body, answers them with the body's own mass, and
+    /// sets the entries it read back to 0. The core zeroes them after the force stage.
+    pub pushes: RSliceMut<'a, [f64; 3]>,
+    /// The same for velocity changes (m/s) made at the velocity level, after the velocity
+    /// update (restitution against a collider): written in `end_substep`, read in the next
+    /// substep's `force` stage, zeroed by the core after it.
+    pub kicks: RSliceMut<'a, [f64; 3]>,
 }
 
 /// How far a group's constraints are from satisfied, in the kind's own unit, plus the
@@ -381,6 +393,9 @@ impl Stages {
     pub const END_SUBSTEP: Self = Self(8);
     /// `report`: named values once per frame.
     pub const REPORT: Self = Self(16);
+    /// Not a stage: the group reads [`SolveContext::pushes`] and [`SolveContext::kicks`],
+    /// so the core keeps them (otherwise they are empty and writers skip them).
+    pub const TAKES_PUSHES: Self = Self(32);
 
     /// Whether every stage of `other` is in `self`.
     pub const fn contains(self, other: Self) -> bool {

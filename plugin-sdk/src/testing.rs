@@ -45,6 +45,12 @@ pub struct CoreState {
     pub frame: u64,
     /// Substeps per frame.
     pub substeps: u32,
+    /// Displacements by constraints against kinematic colliders (m): empty, as the core
+    /// passes them to a scene without a group that takes them; give it one entry per particle
+    /// to record or feed them ([`SolveContext::pushes`]).
+    pub pushes: Vec<[f64; 3]>,
+    /// Velocity changes by the same (m/s), empty likewise ([`SolveContext::kicks`]).
+    pub kicks: Vec<[f64; 3]>,
 }
 
 impl CoreState {
@@ -69,6 +75,8 @@ impl CoreState {
             gravity: [0.0; 3],
             frame: 0,
             substeps: 10,
+            pushes: Vec::new(),
+            kicks: Vec::new(),
         }
     }
 
@@ -84,6 +92,8 @@ impl CoreState {
             gravity: self.gravity,
             frame: self.frame,
             substeps: self.substeps,
+            pushes: abi_stable::std_types::RSliceMut::from_mut_slice(&mut self.pushes),
+            kicks: abi_stable::std_types::RSliceMut::from_mut_slice(&mut self.kicks),
             ..SolveContext::new(
                 &mut self.x,
                 &mut self.v,

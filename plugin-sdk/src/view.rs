@@ -32,6 +32,11 @@ pub struct Particles<'c> {
     pub object: &'c [u32],
     /// Flags per particle.
     pub flags: &'c [u32],
+    /// Displacements by constraints against kinematic colliders (m), or empty
+    /// ([`SolveContext::pushes`]).
+    pub pushes: &'c mut [DVec3],
+    /// Velocity changes by the same (m/s), or empty ([`SolveContext::kicks`]).
+    pub kicks: &'c mut [DVec3],
 }
 
 fn find_attribute<'s>(attrs: RSlice<'s, Attribute<'s>>, name: &str) -> Option<(u32, &'s [f64])> {
@@ -116,6 +121,8 @@ impl<'a> SolveContext<'a> {
             pass: 0,
             passes: 1,
             team: crate::team::TeamRef::serial(),
+            pushes: abi_stable::std_types::RSliceMut::from_mut_slice(&mut []),
+            kicks: abi_stable::std_types::RSliceMut::from_mut_slice(&mut []),
         }
     }
 
@@ -128,6 +135,8 @@ impl<'a> SolveContext<'a> {
             inv_mass: self.inv_mass.as_slice(),
             object: self.object.as_slice(),
             flags: self.flags.as_slice(),
+            pushes: as_dvec3_mut(self.pushes.as_mut_slice()),
+            kicks: as_dvec3_mut(self.kicks.as_mut_slice()),
         }
     }
     /// Positions (m).

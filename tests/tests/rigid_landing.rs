@@ -1,14 +1,14 @@
-//! A rigid ball dropped on the ground with `restitution = 0`, through the dynamically loaded
-//! `rigid` and `collision` plugins (the scene of `bench/rigid_drop.toml`: an icosphere of 162
-//! particles, radius 0.11 m, 0.43 kg, its lowest point 0.885 m up). It should land dead.
+//! A rigid ball dropped on the ground, through the dynamically loaded `rigid` and `collision`
+//! plugins (the scene of `bench/rigid_drop.toml`: an icosphere of 162 particles, radius
+//! 0.11 m, 0.43 kg, its lowest point 0.885 m up).
 //!
-//! It does not with the kinds' default orders: the contact moves one particle of mass `M/N`
-//! by the whole penetration, shape matching moves the body by about `1/N` of it, and the
-//! penetration the body keeps comes back as velocity — a penalty spring that bounces the ball
-//! 24–47 % of its drop, more at finer substeps (`docs/rigid_contacts.md`). That test is
-//! ignored as a known failure, the acceptance test for a fix. With the rigid group ordered
-//! after the collision group (the mitigation the rigid README gives) the ball lands almost
-//! dead, and that is checked.
+//! With `restitution = 0` it must land dead, and with restitution `e` rebound to `e²` of its
+//! drop, whatever the substeps and the groups' order. Before the collision plugin recorded its
+//! pushes for the rigid plugin to answer with the body's mass, the contact moved one particle
+//! of mass `M/N` by the whole penetration, shape matching moved the body by `1/N` of it, and
+//! the penetration the body kept came back as velocity — a penalty spring that bounced the
+//! ball 24–47 % of its drop at the default orders, more at finer substeps
+//! (`docs/rigid_contacts.md`).
 
 use glam::DVec3;
 use nucleus_core::Simulation;
@@ -20,14 +20,16 @@ const REST: f64 = 0.11 + 0.005;
 
 /// The bench's scene (`bench/rigid_drop.toml`, so the figures its README gives and these
 /// checks are of one scene) at `substeps`; `rigid_order`: the rigid group's order (`None`:
-/// the kind's default).
-fn scene(substeps: u32, rigid_order: Option<i64>) -> String {
+/// the kind's default); `restitution` the collision's.
+fn scene(substeps: u32, rigid_order: Option<i64>, restitution: f64) -> String {
     let text = include_str!("../../bench/rigid_drop.toml");
     let rigid = "kind = \"rigid\"\nobjects = [\"ball\"]\n";
-    assert!(text.contains("substeps = 10\n") && text.contains(rigid));
+    let bounce = "restitution = 0.0,";
+    assert!(text.contains("substeps = 10\n") && text.contains(rigid) && text.contains(bounce));
     let order = rigid_order.map_or(String::new(), |o| format!("order = {o}\n"));
     text.replace("substeps = 10\n", &format!("substeps = {substeps}\n"))
         .replace(rigid, &format!("{rigid}{order}"))
+        .replace(bounce, &format!("restitution = {restitution:?},"))
 }
 
 /// The ball's centre (its particles weigh the same).
@@ -39,8 +41,8 @@ fn centre(sim: &Simulation) -> DVec3 {
 
 /// Drops the ball and returns the rebound — how far above its rest height the centre rises
 /// after it first stops falling, as a share of the drop — and the lowest the centre went (m).
-fn rebound(substeps: u32, rigid_order: Option<i64>) -> (f64, f64) {
-    let mut sim = simulation(&scene(substeps, rigid_order), &[]);
+fn rebound(substeps: u32, rigid_order: Option<i64>, restitution: f64) -> (f64, f64) {
+    let mut sim = simulation(&scene(substeps, rigid_order, restitution), &[]);
     let drop = centre(&sim).y - REST;
     let (mut lowest, mut apex, mut previous) = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY);
     let mut landed = false;
@@ -59,47 +61,126 @@ fn rebound(substeps: u32, rigid_order: Option<i64>) -> (f64, f64) {
         lowest = lowest.min(y);
         previous = y;
     });
-    assert!(
-        landed,
-        "{substeps} substeps: the ball never stopped falling"
-    );
+    if !landed {
+        // A dead landing: the centre never rises again.
+        apex = previous;
+    }
     ((apex - REST) / drop, lowest)
 }
 
 #[test]
-fn a_rigid_ball_ordered_after_the_collisions_lands_almost_dead() {
-    let mut worst: f64 = 0.0;
-    for substeps in [10, 20, 40, 80] {
-        let (share, lowest) = rebound(substeps, Some(200));
-        eprintln!(
-            "rigid after collision, {substeps} substeps: rebound {:.1} % of the drop, centre \
-             down to {lowest:.4} m (rest {REST} m)",
-            100.0 * share
-        );
-        worst = worst.max(share);
+fn a_rigid_ball_with_no_restitution_lands_dead() {
+    for order in [None, Some(200)] {
+        for substeps in [10, 20, 40, 80] {
+            let (share, lowest) = rebound(substeps, order, 0.0);
+            eprintln!(
+                "rigid order {order:?}, {substeps} substeps: rebound {:.3} % of the drop, centre \
+                 down to {lowest:.4} m (rest {REST} m)",
+                100.0 * share
+            );
+            // Measured 0.0 % at every setting (2026-11-25); 24-47 % before pushes were
+            // answered with the body's mass.
+            assert!(
+                share < 0.01,
+                "rigid order {order:?}, {substeps} substeps: the ball rebounds {:.1} % of its drop",
+                100.0 * share
+            );
+            // Into the ground by less than the collision thickness.
+            assert!(
+                lowest > REST - 0.005,
+                "rigid order {order:?}, {substeps} substeps: the centre went down to {lowest} m"
+            );
+        }
     }
-    // Measured 2.1-4.1 % (2026-11-24); the default order gives 24-47 %.
-    assert!(
-        worst < 0.06,
-        "the ball rebounds {:.1} % of its drop",
-        100.0 * worst
-    );
 }
 
 #[test]
-#[ignore = "fails: rigid contacts are springy — a ball with restitution 0 rebounds 24-47 % of its drop at the default orders (docs/rigid_contacts.md)"]
-fn a_rigid_ball_with_no_restitution_lands_dead() {
-    for substeps in [10, 20, 40, 80] {
-        let (share, lowest) = rebound(substeps, None);
-        eprintln!(
-            "default orders, {substeps} substeps: rebound {:.1} % of the drop, centre down to \
-             {lowest:.4} m (rest {REST} m)",
-            100.0 * share
-        );
-        assert!(
-            share < 0.01,
-            "{substeps} substeps: the ball rebounds {:.1} % of its drop",
-            100.0 * share
-        );
+fn a_rigid_ball_rebounds_to_the_square_of_its_restitution() {
+    for e in [0.5, 0.8] {
+        for substeps in [10, 40] {
+            let (share, _) = rebound(substeps, None, e);
+            eprintln!(
+                "restitution {e}, {substeps} substeps: rebound {:.2} % of the drop",
+                100.0 * share
+            );
+            // The centre leaves at `e` times its impact speed, so it climbs back `e²` of the
+            // drop; measured 24.9-25.0 % and 63.9-64.0 % (2026-11-25).
+            assert!(
+                (share - e * e).abs() < 0.01,
+                "restitution {e}, {substeps} substeps: rebound {:.2} % of the drop, expected {:.0} %",
+                100.0 * share,
+                100.0 * e * e
+            );
+        }
     }
+}
+
+/// A 0.2 × 0.04 × 0.2 m slab of tets sliding flat on the ground at 2 m/s, dynamic friction
+/// `μd = 0.4`; `rigid_order` as in [`scene`]. Returns its deceleration over frames 2–12 as a
+/// multiple of Coulomb's `μd g`, and where it stopped (m).
+fn slide(rigid_order: Option<i64>) -> (f64, f64) {
+    let order = rigid_order.map_or(String::new(), |o| format!("order = {o}\n"));
+    let text = format!(
+        r#"
+[solver]
+frame_rate = 60.0
+frames = 60
+substeps = 10
+gravity = [0.0, -9.81, 0.0]
+[[objects]]
+name = "slab"
+density = 500.0
+velocity = [2.0, 0.0, 0.0]
+[objects.tet_box]
+min = [-0.1, 0.005, -0.1]
+max = [0.1, 0.045, 0.1]
+resolution = [2, 1, 2]
+[[constraints]]
+kind = "rigid"
+objects = ["slab"]
+{order}
+[[constraints]]
+kind = "collision"
+params = {{ thickness = 0.005, restitution = 0.0, friction_static = 0.5, friction_dynamic = 0.4, colliders = [
+  {{ type = "plane", point = [0.0, 0.0, 0.0], normal = [0.0, 1.0, 0.0] }},
+] }}
+"#
+    );
+    let mut sim = simulation(&text, &[]);
+    let range = particles_of(&sim, "slab");
+    let n = range.len() as f64;
+    let mut xs = Vec::new();
+    run(&mut sim, 60, |sim| {
+        let c = sim.positions()[range.clone()]
+            .iter()
+            .copied()
+            .sum::<DVec3>()
+            / n;
+        assert!(c.is_finite(), "the slab's centre is {c}");
+        xs.push(c.x);
+    });
+    // `run` calls back after every substep, 10 a frame: the speed over frame `k`.
+    let fps = 60.0;
+    let speed = |k: usize| (xs[10 * k + 9] - xs[10 * k - 1]) * fps;
+    let decel = (speed(2) - speed(12)) / (10.0 / fps);
+    (decel / (0.4 * 9.81), *xs.last().unwrap())
+}
+
+#[test]
+fn a_rigid_slab_sliding_on_the_ground_slows_at_about_coulombs_rate() {
+    // Coulomb: it slows at μd g and stops after v²/(2 μd g) = 0.510 m.
+    let (after, stop_after) = slide(Some(200));
+    let (first, stop_first) = slide(None);
+    eprintln!(
+        "rigid after the collision group: {after:.4} μd g, stops at {stop_after:.4} m; \
+         first (default): {first:.4} μd g, stops at {stop_first:.4} m"
+    );
+    // Measured 1.0000 and 0.508 m with the rigid group after the collision group (2026-11-25).
+    assert!((after - 1.0).abs() < 0.01, "{after}");
+    assert!((stop_after - 0.510).abs() < 0.01, "{stop_after}");
+    // A known deviation at the default order (the rigid group first): measured 1.082 and
+    // 0.469 m, the same at 10 and 40 substeps and 1 or 4 iterations; its cause is not
+    // established (plugins/rigid/README.md, "Contacts").
+    assert!((first - 1.0).abs() < 0.1, "{first}");
+    assert!(stop_first > 0.45 && stop_first < 0.52, "{stop_first}");
 }

@@ -137,6 +137,35 @@ impl Contact {
         }
     }
 
+    /// What the contact is about to move, to record as pushes ([`Moves`]): `None` unless
+    /// `record` and the contact moves one side only — the other is a collider's or
+    /// kinematic particles (inverse mass 0), which do not move back. What it moves a particle
+    /// by is then all it wants, whatever the particle's mass, and a group that holds the
+    /// particle as part of a body answers it with the body's mass
+    /// ([`SolveContext::pushes`](nucleus_sdk::SolveContext::pushes)).
+    #[inline]
+    pub fn moves_if(&self, record: bool, x: &[DVec3], inv_mass: &[f64]) -> Option<Moves> {
+        if !record {
+            return None;
+        }
+        let mut moves = Moves {
+            ids: self.ids,
+            used: [false; 4],
+            before: [DVec3::ZERO; 4],
+        };
+        let (mut plus, mut minus) = (false, false);
+        for k in 0..4 {
+            let i = self.ids[k] as usize;
+            if self.w[k] != 0.0 && inv_mass[i] > 0.0 {
+                plus |= self.w[k] > 0.0;
+                minus |= self.w[k] < 0.0;
+                moves.used[k] = true;
+                moves.before[k] = x[i];
+            }
+        }
+        (plus != minus).then_some(moves)
+    }
+
     /// Projects the constraint `C ≥ 0`; returns the correction `−C` applied (0 if satisfied or
     /// if nothing can move).
     #[inline]
@@ -217,6 +246,29 @@ impl Contact {
     }
 }
 
+/// The particles a contact against something immovable is about to move, with their values
+/// before ([`Contact::moves_if`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Moves {
+    ids: [u32; 4],
+    used: [bool; 4],
+    before: [DVec3; 4],
+}
+
+impl Moves {
+    /// Adds to `out` what each of the particles moved by since: `x` now minus before (a
+    /// displacement, or with velocities for `x` a velocity change).
+    #[inline]
+    pub fn add_to(&self, x: &[DVec3], out: &mut [DVec3]) {
+        for k in 0..4 {
+            if self.used[k] {
+                let i = self.ids[k] as usize;
+                out[i] += x[i] - self.before[k];
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -240,6 +292,57 @@ mod tests {
             .filter(|(_, &w)| w > 0.0)
             .map(|(p, &w)| *p / w)
             .sum()
+    }
+
+    #[test]
+    fn only_contacts_against_something_immovable_record_their_pushes() {
+        let beta = [0.2, 0.3, 0.5];
+        let x0 = vec![
+            DVec3::new(0.3, 0.3, -0.004),
+            DVec3::new(0.0, 0.0, 0.0),
+            DVec3::new(1.0, 0.0, 0.001),
+            DVec3::new(0.0, 1.0, -0.002),
+        ];
+        let pushed = |inv_mass: [f64; 4], record: bool| {
+            let (mut c, mut x) = (vf_contact(beta, DVec3::Z, 0.01), x0.clone());
+            let mut out = vec![DVec3::ZERO; 4];
+            let moves = c.moves_if(record, &x, &inv_mass);
+            c.project(&mut x, &inv_mass);
+            if let Some(m) = moves {
+                m.add_to(&x, &mut out);
+            }
+            (out, x)
+        };
+        // The face kinematic (a mesh collider): the vertex's whole displacement is recorded.
+        let (out, x) = pushed([1.0, 0.0, 0.0, 0.0], true);
+        assert!(out[0].z > 0.0 && out[0] == x[0] - x0[0], "{out:?}");
+        assert_eq!(&out[1..], &[DVec3::ZERO; 3]);
+        // The vertex kinematic, the face moving: the face's displacements.
+        let (out, x) = pushed([0.0, 1.0, 2.0, 0.5], true);
+        assert_eq!(out[0], DVec3::ZERO);
+        for k in 1..4 {
+            assert!(out[k] == x[k] - x0[k] && out[k].z < 0.0, "{out:?}");
+        }
+        // Both sides moving: momentum is shared between them, nothing is recorded; nor when
+        // no group reads the pushes.
+        assert_eq!(pushed([2.0, 1.0, 0.5, 1.5], true).0, vec![DVec3::ZERO; 4]);
+        assert_eq!(pushed([1.0, 0.0, 0.0, 0.0], false).0, vec![DVec3::ZERO; 4]);
+        // A collider contact: one particle, always recorded.
+        let c = Contact {
+            kind: PairKind::Collider,
+            pair: [0, 0],
+            ids: [0, 0, 0, 0],
+            w: [1.0, 0.0, 0.0, 0.0],
+            n: DVec3::Y,
+            offset: 0.0,
+            collider_disp: DVec3::ZERO,
+            dn: 0.0,
+        };
+        assert!(c.moves_if(true, &x0, &[1.0]).is_some());
+        assert!(
+            c.moves_if(true, &x0, &[0.0]).is_none(),
+            "a pinned particle is not pushed"
+        );
     }
 
     #[test]

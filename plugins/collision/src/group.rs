@@ -2254,9 +2254,18 @@ impl CollisionGroup {
     /// test on every candidate and project each new contact at once. The pass after the
     /// candidates were found takes their separations ahead over the team, where it has more
     /// than one thread and enough candidates ([`Self::take_separations_ahead`]).
-    fn resolve_pass(&mut self, x0: &[DVec3], x: &mut [DVec3], inv_mass: &[f64], team: TeamRef<'_>) {
+    fn resolve_pass(
+        &mut self,
+        x0: &[DVec3],
+        x: &mut [DVec3],
+        inv_mass: &[f64],
+        pushes: &mut [DVec3],
+        team: TeamRef<'_>,
+    ) {
         for c in &mut self.contacts {
-            c.project(x, inv_mass);
+            recorded(c, x, inv_mass, pushes, |c, x| {
+                c.project(x, inv_mass);
+            });
         }
         self.update_moved(x);
         if std::mem::take(&mut self.separations_unknown)
@@ -2298,15 +2307,17 @@ impl CollisionGroup {
             };
             let ids = contact.ids;
             let slot = self.contact_of[k];
+            if slot != NONE {
+                contact.dn = self.contacts[slot as usize].dn;
+            }
+            recorded(&mut contact, x, inv_mass, pushes, |c, x| {
+                c.project(x, inv_mass);
+            });
             if slot == NONE {
                 self.contact_of[k] = self.contacts.len() as u32;
-                contact.project(x, inv_mass);
                 self.contacts.push(contact);
             } else {
-                let old = &mut self.contacts[slot as usize];
-                contact.dn = old.dn;
-                contact.project(x, inv_mass);
-                *old = contact;
+                self.contacts[slot as usize] = contact;
             }
             self.update_moved_of(&ids, x);
         }
@@ -2336,7 +2347,13 @@ impl CollisionGroup {
 
     /// Pushes every vertex out of the analytic colliders (exact signed-distance projection at
     /// the end of the substep).
-    fn project_out_of_colliders(&mut self, x0: &[DVec3], x: &mut [DVec3], inv_mass: &[f64]) {
+    fn project_out_of_colliders(
+        &mut self,
+        x0: &[DVec3],
+        x: &mut [DVec3],
+        inv_mass: &[f64],
+        pushes: &mut [DVec3],
+    ) {
         for k in 0..self.candidates.len() {
             let Some((c, p, r)) = self.dynamic_collider_pair(self.candidates[k], inv_mass) else {
                 continue;
@@ -2344,7 +2361,7 @@ impl CollisionGroup {
             let start = self.start_of(k, x0);
             if start.leaves == Leaves::OffAxis {
                 if let Some(exit) = self.axis_exit(c, self.axis_parameter(c, x0[p])) {
-                    self.slide_off_axis(exit, p, r, x0, x);
+                    self.slide_off_axis(exit, p, r, x0, x, pushes);
                 }
                 continue;
             }
@@ -2357,7 +2374,11 @@ impl CollisionGroup {
             }
             let r = push_out_reach(r, start.distance, self.push_out());
             if phi < r {
-                x[p] = pose.apply(q + (r - phi) * n);
+                let to = pose.apply(q + (r - phi) * n);
+                if !pushes.is_empty() {
+                    pushes[p] += to - x[p];
+                }
+                x[p] = to;
             }
         }
     }
@@ -2374,9 +2395,15 @@ impl CollisionGroup {
     /// whose closest points coincide (no direction) is left to the fail-safe. Pushes that
     /// share particles undo each other a little, so the sweep is repeated (Gauss-Seidel, at
     /// most [`FEATURE_SWEEPS`] times) until no primitive is deeper than 1e-9 of its reach.
-    fn project_features_out(&mut self, x0: &[DVec3], x: &mut [DVec3], inv_mass: &[f64]) {
+    fn project_features_out(
+        &mut self,
+        x0: &[DVec3],
+        x: &mut [DVec3],
+        inv_mass: &[f64],
+        pushes: &mut [DVec3],
+    ) {
         for _ in 0..FEATURE_SWEEPS {
-            if self.project_features_out_once(x0, x, inv_mass) <= 1e-9 {
+            if self.project_features_out_once(x0, x, inv_mass, pushes) <= 1e-9 {
                 return;
             }
         }
@@ -2389,6 +2416,7 @@ impl CollisionGroup {
         x0: &[DVec3],
         x: &mut [DVec3],
         inv_mass: &[f64],
+        pushes: &mut [DVec3],
     ) -> f64 {
         let mut worst: f64 = 0.0;
         for k in 0..self.candidates.len() {
@@ -2399,7 +2427,7 @@ impl CollisionGroup {
             let c = self.feature_collider(cand) as usize;
             let start = self.start_of(k, x0);
             if start.leaves == Leaves::OffAxis {
-                let left = self.push_off_axis(cand, self.reach[k], x0, x, inv_mass);
+                let left = self.push_off_axis(cand, self.reach[k], x0, x, inv_mass, pushes);
                 worst = worst.max(left);
                 continue;
             }
@@ -2428,6 +2456,9 @@ impl CollisionGroup {
                 let i = ids[j] as usize;
                 if w[j] != 0.0 && inv_mass[i] > 0.0 {
                     x[i] += inv_mass[i] * w[j] * step;
+                    if !pushes.is_empty() {
+                        pushes[i] += inv_mass[i] * w[j] * step;
+                    }
                 }
             }
         }
@@ -2565,6 +2596,7 @@ impl CollisionGroup {
         reach: f64,
         x0: &[DVec3],
         x: &mut [DVec3],
+        pushes: &mut [DVec3],
     ) -> f64 {
         let [dir0, end0, dir1, end1] = exit;
         let start = dir0.dot(x0[i] - end0);
@@ -2572,6 +2604,9 @@ impl CollisionGroup {
         let deficit = target - dir1.dot(x[i] - end1);
         if deficit > 0.0 {
             x[i] += deficit * dir1;
+            if !pushes.is_empty() {
+                pushes[i] += deficit * dir1;
+            }
             deficit / reach
         } else {
             0.0
@@ -2589,6 +2624,7 @@ impl CollisionGroup {
         x0: &[DVec3],
         x: &mut [DVec3],
         inv_mass: &[f64],
+        pushes: &mut [DVec3],
     ) -> f64 {
         let c = self.feature_collider(cand) as usize;
         let b = cand.pair[1] as usize;
@@ -2606,7 +2642,7 @@ impl CollisionGroup {
         let mut worst: f64 = 0.0;
         for i in ids.map(|i| i as usize) {
             if inv_mass[i] > 0.0 {
-                worst = worst.max(self.slide_off_axis(exit, i, reach, x0, x));
+                worst = worst.max(self.slide_off_axis(exit, i, reach, x0, x, pushes));
             }
         }
         worst
@@ -3104,6 +3140,25 @@ impl CollisionGroup {
 }
 
 /// An orthonormal frame (columns) from three points, `None` if they are (nearly) collinear.
+/// Runs `act` on contact `c` and, when `out` is being recorded (not empty), adds to it what
+/// `act` moved the contact's particles by if the contact is against something immovable
+/// ([`Contact::moves_if`]): displacements with positions for `x`, velocity changes with
+/// velocities.
+#[inline]
+fn recorded(
+    c: &mut Contact,
+    x: &mut [DVec3],
+    inv_mass: &[f64],
+    out: &mut [DVec3],
+    act: impl FnOnce(&mut Contact, &mut [DVec3]),
+) {
+    let moves = c.moves_if(!out.is_empty(), x, inv_mass);
+    act(c, x);
+    if let Some(m) = moves {
+        m.add_to(x, out);
+    }
+}
+
 fn frame(a: DVec3, b: DVec3, c: DVec3) -> Option<glam::DMat3> {
     let e1 = (b - a).try_normalize()?;
     let u = c - a;
@@ -3187,22 +3242,27 @@ impl ConstraintGroup for CollisionGroup {
         let (last, team) = (ctx.pass + 1 >= ctx.passes, ctx.team);
         let p = ctx.particles();
         self.check_state(p.x.len().min(p.x0.len()).min(p.inv_mass.len()))?;
-        let (x0, x, w) = (p.x0, p.x, p.inv_mass);
+        let (x0, x, w, pushes) = (p.x0, p.x, p.inv_mass, p.pushes);
         self.refresh_escaped(x0, x, w, team);
-        self.resolve_pass(x0, x, w, team);
+        self.resolve_pass(x0, x, w, pushes, team);
         if last {
-            for c in &self.contacts {
-                c.friction(x, x0, w, self.mu_static, self.mu_dynamic);
+            let (mu_static, mu_dynamic) = (self.mu_static, self.mu_dynamic);
+            for c in &mut self.contacts {
+                recorded(c, x, w, pushes, |c, x| {
+                    c.friction(x, x0, w, mu_static, mu_dynamic);
+                });
             }
             // Friction moved particles tangentially: one more normal sweep.
             for c in &mut self.contacts {
-                c.project(x, w);
+                recorded(c, x, w, pushes, |c, x| {
+                    c.project(x, w);
+                });
             }
             // Friction and the sweeps moved particles: the final projections must see every
             // pair near a collider now, not only those of the pass's candidates.
             self.refresh_escaped(x0, x, w, team);
-            self.project_features_out(x0, x, w);
-            self.project_out_of_colliders(x0, x, w);
+            self.project_features_out(x0, x, w, pushes);
+            self.project_out_of_colliders(x0, x, w, pushes);
             let unresolved = self.fail_safe(x0, x, w, team);
             self.record_push_outs(x0, x, w);
             self.stats.unresolved += unresolved;
@@ -3227,16 +3287,18 @@ impl ConstraintGroup for CollisionGroup {
         for (vp, (&xp, &x0)) in self.v_pre.iter_mut().zip(self.x_pred.iter().zip(p.x0)) {
             *vp = (xp - x0) / h;
         }
-        for c in &self.contacts {
+        for c in &mut self.contacts {
             let collider_v = c.collider_disp / h;
-            c.restitution(
-                p.v,
-                &self.v_pre,
-                p.inv_mass,
-                self.restitution,
-                threshold,
-                collider_v,
-            );
+            recorded(c, p.v, p.inv_mass, p.kicks, |c, v| {
+                c.restitution(
+                    v,
+                    &self.v_pre,
+                    p.inv_mass,
+                    self.restitution,
+                    threshold,
+                    collider_v,
+                );
+            });
         }
         Ok(())
     }
@@ -3564,8 +3626,8 @@ mod tests {
             if refreshed && kept > 0 {
                 carries += carried.separation.iter().filter(|s| !s.d0.is_nan()).count();
             }
-            carried.resolve_pass(&x0, &mut xa, &inv_mass, team);
-            forgotten.resolve_pass(&x0, &mut xb, &inv_mass, team);
+            carried.resolve_pass(&x0, &mut xa, &inv_mass, &mut [], team);
+            forgotten.resolve_pass(&x0, &mut xb, &inv_mass, &mut [], team);
             assert_eq!(carried.candidates, forgotten.candidates, "round {round}");
             assert_eq!(
                 carried.contacts.len(),
@@ -3649,7 +3711,7 @@ mod tests {
             if g.refresh_escaped(&x0, &x, &inv_mass, team) {
                 carried += g.start.iter().filter(|s| !s.distance.is_nan()).count();
             }
-            g.resolve_pass(&x0, &mut x, &inv_mass, team);
+            g.resolve_pass(&x0, &mut x, &inv_mass, &mut [], team);
             for k in 0..g.candidates.len() {
                 let kind = g.candidates[k].kind;
                 let Some(slot) = start_slot(g.start_split, k) else {

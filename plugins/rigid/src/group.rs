@@ -9,8 +9,8 @@ use nucleus_sdk::serde_json::{self, Value};
 use serde::{Deserialize, Serialize};
 
 use crate::matching::{
-    classify_pins, fit_frame, goal_distances, project_goals, rigidify_velocities, Anchor, BodyRef,
-    Frame,
+    answer_pushes, classify_pins, fit_frame, goal_distances, mass_properties, project_goals,
+    rigidify_velocities, Anchor, BodyRef, Frame, Push, PushWork,
 };
 
 /// The parameters of the `rigid` kind, as written in a scene.
@@ -179,6 +179,8 @@ struct Body {
     rest_origin: DVec3,
     /// The rotation of the last fit: warm start and tie-break of the next.
     rotation: DQuat,
+    /// The largest distance of a particle from the rest reference point (m).
+    extent: f64,
 }
 
 /// All the rigid bodies of one `rigid` group, struct-of-arrays.
@@ -195,6 +197,48 @@ pub struct RigidGroup {
     mu: Vec<DVec3>,
     /// Particle slices must hold more than this index (`None` for an empty group).
     max_index: Option<u32>,
+    /// Room to answer the pushes on the largest body without allocating.
+    scratch: PushScratch,
+}
+
+/// What answering the pushes on one body needs: its pushed particles and their pushes, the
+/// pushes as the body sees them, and the solver's state ([`answer_pushes`]).
+#[derive(Clone, Debug, Default)]
+struct PushScratch {
+    pushed: Vec<(u32, DVec3)>,
+    pushes: Vec<Push>,
+    work: Vec<PushWork>,
+}
+
+impl PushScratch {
+    /// Takes the pushes (or kicks) `deltas` waiting on the free particles of `body` off them:
+    /// each entry back to 0 and `field` (the positions, or the velocities) back by it, to
+    /// where the body had the particle. Returns whether any was waiting.
+    fn undo(&mut self, body: &BodyRef<'_>, field: &mut [DVec3], deltas: &mut [DVec3]) -> bool {
+        self.pushed.clear();
+        for &i in &body.ids[body.pinned..] {
+            let d = std::mem::take(&mut deltas[i as usize]);
+            if d != DVec3::ZERO {
+                field[i as usize] -= d;
+                self.pushed.push((i, d));
+            }
+        }
+        !self.pushed.is_empty()
+    }
+
+    /// The body's answer ([`answer_pushes`]) to the pushes [`Self::undo`] took, at the
+    /// positions `x`, with its centre of mass, the motion `(t, θ)`; `scale` is a thousandth
+    /// of it the sweeps may fall short by.
+    fn answer(&mut self, body: &BodyRef<'_>, x: &[DVec3], scale: f64) -> (DVec3, DVec3, DVec3) {
+        let (c, m, inertia) = mass_properties(body, x);
+        self.pushes.clear();
+        self.pushes.extend(self.pushed.iter().map(|&(i, by)| Push {
+            r: x[i as usize] - c,
+            by,
+        }));
+        let (t, theta) = answer_pushes(m, &inertia, &self.pushes, 1e-3 * scale, &mut self.work);
+        (c, t, theta)
+    }
 }
 
 /// The report columns of each body, in order.
@@ -305,6 +349,7 @@ impl RigidGroup {
             mass: Vec::with_capacity(total),
             mu: vec![DVec3::ZERO; total],
             max_index: None,
+            scratch: PushScratch::default(),
         };
         for (name, ids, alpha, spin) in selections {
             let (pinned, free): (Vec<u32>, Vec<u32>) =
@@ -355,8 +400,14 @@ impl RigidGroup {
                 spin,
                 rest_origin,
                 rotation: DQuat::IDENTITY,
+                extent,
             });
         }
+        let largest = group.bodies.iter().map(|b| b.end - b.start).max();
+        let largest = largest.unwrap_or(0);
+        group.scratch.pushed.reserve(largest);
+        group.scratch.pushes.reserve(largest);
+        group.scratch.work.reserve(largest);
         Ok(group)
     }
 
@@ -376,17 +427,84 @@ impl RigidGroup {
     }
 
     fn body_ref(&self, b: &Body) -> BodyRef<'_> {
-        BodyRef {
-            ids: &self.ids[b.start..b.end],
-            rest: &self.rest[b.start..b.end],
-            mass: &self.mass[b.start..b.end],
-            pinned: b.pinned,
-            anchor: b.anchor,
-        }
+        body_ref(&self.ids, &self.rest, &self.mass, b)
     }
 
     fn is_movable(b: &Body) -> bool {
         b.end - b.start > b.pinned
+    }
+
+    /// Whether the body answers pushes with its own mass ([`take_pushes`]): a free body
+    /// (no pin) that is fully rigid (compliance 0). A pinned body's pins take what a push
+    /// gives, and a compliant body deforms under it, as loose particles would.
+    fn answers_pushes(b: &Body) -> bool {
+        b.alpha == 0.0 && b.anchor == Anchor::Free && Self::is_movable(b)
+    }
+
+    /// Whether pushes (or kicks) may wait for this group: the slice is the core's (one entry
+    /// per particle) and some body answers them.
+    fn takes(&self, deltas: &[DVec3]) -> bool {
+        self.max_index.is_some_and(|m| (m as usize) < deltas.len())
+            && self.bodies.iter().any(Self::answers_pushes)
+    }
+
+    /// Every body that answers pushes takes those waiting on its particles and moves as a
+    /// whole to answer them with its mass ([`answer_pushes`]); returns whether any body moved.
+    fn take_position_pushes(&mut self, x: &mut [DVec3], pushes: &mut [DVec3]) -> bool {
+        if !self.takes(pushes) {
+            return false;
+        }
+        let mut moved = false;
+        for b in &self.bodies {
+            if !Self::answers_pushes(b) {
+                continue;
+            }
+            let body = body_ref(&self.ids, &self.rest, &self.mass, b);
+            if !self.scratch.undo(&body, x, pushes) {
+                continue;
+            }
+            let (c, t, theta) = self.scratch.answer(&body, x, b.extent);
+            let turn = DQuat::from_scaled_axis(theta);
+            for &i in &body.ids[body.pinned..] {
+                let i = i as usize;
+                x[i] = c + t + turn * (x[i] - c);
+            }
+            moved = true;
+        }
+        moved
+    }
+
+    /// The same for the kicks (velocity changes) recorded after the last velocity update:
+    /// each body's velocities change by the rigid motion that answers them.
+    fn take_velocity_kicks(&mut self, x: &[DVec3], v: &mut [DVec3], kicks: &mut [DVec3], h: f64) {
+        if !self.takes(kicks) || h <= 0.0 {
+            return;
+        }
+        for b in &self.bodies {
+            if !Self::answers_pushes(b) {
+                continue;
+            }
+            let body = body_ref(&self.ids, &self.rest, &self.mass, b);
+            if !self.scratch.undo(&body, v, kicks) {
+                continue;
+            }
+            let (c, dv, dw) = self.scratch.answer(&body, x, b.extent / h);
+            for &i in &body.ids[body.pinned..] {
+                let i = i as usize;
+                v[i] += dv + dw.cross(x[i] - c);
+            }
+        }
+    }
+}
+
+/// Body `b`'s slices of the group's arrays.
+fn body_ref<'a>(ids: &'a [u32], rest: &'a [DVec3], mass: &'a [f64], b: &Body) -> BodyRef<'a> {
+    BodyRef {
+        ids: &ids[b.start..b.end],
+        rest: &rest[b.start..b.end],
+        mass: &mass[b.start..b.end],
+        pinned: b.pinned,
+        anchor: b.anchor,
     }
 }
 
@@ -402,6 +520,9 @@ impl ConstraintGroup for RigidGroup {
         if self.bodies.iter().any(|b| b.spin != DVec3::ZERO) {
             s = s | Stages::FORCE;
         }
+        if self.bodies.iter().any(Self::answers_pushes) {
+            s = s | Stages::TAKES_PUSHES | Stages::FORCE;
+        }
         s
     }
 
@@ -412,10 +533,13 @@ impl ConstraintGroup for RigidGroup {
     /// At the first substep of the run only: `vᵢ += ω × (xᵢ − c)` for the free particles of
     /// every body with an initial angular velocity `ω`, `c` its frame's centre.
     fn force(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
+        ctx.check_holds(self.max_index)?;
+        let h = ctx.h;
+        let p = ctx.particles();
+        self.take_velocity_kicks(p.x, p.v, p.kicks, h);
         if ctx.frame != 0 || ctx.substep != 0 {
             return Ok(());
         }
-        ctx.check_holds(self.max_index)?;
         let p = ctx.particles();
         for b in &self.bodies {
             if b.spin == DVec3::ZERO || !Self::is_movable(b) {
@@ -442,7 +566,17 @@ impl ConstraintGroup for RigidGroup {
     /// keeping its linear and angular momentum ([`rigidify_velocities`]).
     fn end_substep(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
         ctx.check_holds(self.max_index)?;
+        let h = ctx.h;
         let p = ctx.particles();
+        if self.take_position_pushes(p.x, p.pushes) && h > 0.0 {
+            // The bodies moved after the velocity update: their velocities follow.
+            for b in self.bodies.iter().filter(|b| Self::answers_pushes(b)) {
+                for &i in &self.ids[b.start + b.pinned..b.end] {
+                    let i = i as usize;
+                    p.v[i] = (p.x[i] - p.x0[i]) / h;
+                }
+            }
+        }
         for b in &self.bodies {
             if b.alpha == 0.0 && Self::is_movable(b) {
                 rigidify_velocities(&self.body_ref(b), p.x, p.v, p.inv_mass);
@@ -457,6 +591,7 @@ impl ConstraintGroup for RigidGroup {
         let h = ctx.substep_length()?;
         ctx.check_holds(self.max_index)?;
         let p = ctx.particles();
+        self.take_position_pushes(p.x, p.pushes);
         let Self {
             bodies,
             ids,
@@ -469,13 +604,7 @@ impl ConstraintGroup for RigidGroup {
             if !Self::is_movable(b) {
                 continue;
             }
-            let body = BodyRef {
-                ids: &ids[b.start..b.end],
-                rest: &rest[b.start..b.end],
-                mass: &mass[b.start..b.end],
-                pinned: b.pinned,
-                anchor: b.anchor,
-            };
+            let body = body_ref(ids, rest, mass, b);
             let frame = fit_frame(&body, p.x, b.rotation);
             b.rotation = frame.rotation;
             let alpha_tilde = b.alpha / (h * h);

@@ -91,6 +91,21 @@
 //! `|L|` drifts by `1 − exp(−T ω² h / 2)` over a time `T`) and takes some of the bounce out of
 //! contacts. Bodies held at one point get the same projection relative to their pin; bodies
 //! held along a line or by three pins, and compliant bodies, keep their velocities.
+//!
+//! ## Contacts against immovable things
+//!
+//! A contact against a collider moves a particle by all of its violation whatever the
+//! particle's mass; shape matching alone would move the body by the particle's share, `1/N`
+//! of it, and the penetration the body kept would come back as velocity (a ball with
+//! `restitution = 0` rebounded 24–47 % of its drop). Such moves arrive in the SDK's
+//! `pushes` (restitution's in `kicks`), and a free, fully rigid body answers them with its
+//! own mass ([`matching::answer_pushes`]): the rigid motion `(t, θ)` that moves every pushed
+//! point along its push `δ` by at least `|δ|`, each push only pushing, each impulse
+//! `Δλ = (|δ| − n·(t + θ × r)) / w` with the body's inverse mass at that point,
+//! `w = 1/M + (r × n)ᵀ I⁻¹ (r × n)` (Müller et al. 2020), swept by projected Gauss-Seidel.
+//! The pushed particles first go back by their pushes, then the whole body moves: at each
+//! pass before the fit, at the end of the substep before the velocities are taken from the
+//! positions, and for the kicks in the next force stage.
 
 //! ## Pinned particles
 //!

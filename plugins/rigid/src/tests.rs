@@ -96,7 +96,13 @@ fn every_target_object_is_one_body_by_default() {
     assert_eq!(sim.groups[0].len, 2);
     assert_eq!(
         sim.groups[0].stages,
-        Stages::PROJECT | Stages::END_SUBSTEP | Stages::REPORT
+        Stages::PROJECT
+            | Stages::END_SUBSTEP
+            | Stages::REPORT
+            | Stages::FORCE
+            | Stages::TAKES_PUSHES,
+        "free rigid bodies answer the collisions' pushes: they take them, and the kicks in the \
+         force stage"
     );
     let stats = report(&mut sim);
     assert_eq!(stats.len(), 2 * REPORT_COLUMNS.len());
