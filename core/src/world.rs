@@ -6,14 +6,16 @@
 //!    reach their targets, with the velocity that takes them there, in `predict`);
 //! 2. `forces` — `v += h g` for dynamic particles, then every group's `force` stage;
 //! 3. `predict` — `x0 = x; x = x0 + h v` (kinematic particles: `x = target`); without force
-//!    groups, gravity and the prediction are one loop over the particles; then the pushes and
-//!    kicks are zeroed (kept only when a group takes them: `Stages::TAKES_PUSHES`);
+//!    groups, gravity and the prediction are one loop over the particles; then the pushes are
+//!    zeroed (kept only when a group takes them and one gives them: `Stages::TAKES_PUSHES`,
+//!    `Stages::GIVES_PUSHES`);
 //! 4. `begin` — every group's `begin_substep`;
 //! 5. `solve` — the schedule: each group's `project`, `importance × iterations` times,
 //!    interleaved by order (paper, Figures 9–13);
 //! 6. `velocities` — `v = (x − x0) / h`, in the same loop as the finite check of the last
 //!    call of the schedule (every other call is checked on its own);
-//! 7. `end` — every group's `end_substep` (restitution, friction), then global damping.
+//! 7. `end` — the kicks zeroed, every group's `end_substep` (restitution, friction), then
+//!    global damping.
 //!
 //! This is the paper's implicit-velocity / explicit-position scheme (symplectic Euler).
 //! Only the stages a group implements are called; empty groups are never scheduled. The
@@ -765,13 +767,10 @@ impl Simulation {
         self.force_groups = pick(Stages::FORCE);
         self.begin_groups = pick(Stages::BEGIN_SUBSTEP);
         self.end_groups = pick(Stages::END_SUBSTEP);
-        // The pushes exist only for a scene with a group that reads them: elsewhere the
-        // writers see empty slices and skip them.
-        let n = if pick(Stages::TAKES_PUSHES).is_empty() {
-            0
-        } else {
-            self.particles.x.len()
-        };
+        // The pushes exist only for a scene with a group that reads them and one that writes
+        // them: elsewhere they are empty slices, which writers and readers skip.
+        let used = !pick(Stages::TAKES_PUSHES).is_empty() && !pick(Stages::GIVES_PUSHES).is_empty();
+        let n = if used { self.particles.x.len() } else { 0 };
         let p = &mut self.particles;
         for a in [&mut p.pushes, &mut p.kicks] {
             a.clear();
@@ -831,6 +830,8 @@ impl Simulation {
         if let Some(g) = last {
             self.non_finite_error(g, Stage::Project, substep, found)?;
         }
+        // The kicks the last substep's end stage recorded were read in this substep's passes.
+        self.particles.kicks.fill([0.0; 3]);
         for k in 0..self.end_groups.len() {
             self.call_group(
                 self.end_groups[k],
@@ -876,8 +877,6 @@ impl Simulation {
             return Ok(());
         }
         self.apply_gravity(h, team);
-        // The force stage reads the kicks the last substep recorded at the velocity level,
-        // then every substep records its own pushes and kicks.
         for k in 0..self.force_groups.len() {
             self.call_group(
                 self.force_groups[k],
@@ -894,10 +893,10 @@ impl Simulation {
         Ok(())
     }
 
-    /// Zeroes the pushes and kicks (nothing when no group takes them).
+    /// Zeroes the pushes (nothing when no group takes them): the substep's own are recorded
+    /// from here on.
     fn forget_pushes(&mut self) {
         self.particles.pushes.fill([0.0; 3]);
-        self.particles.kicks.fill([0.0; 3]);
     }
 
     /// For benchmarks and tests that time or inspect one group's stages: the first stages of

@@ -338,15 +338,17 @@ pub struct SolveContext<'a> {
     pub team: crate::team::TeamRef<'a>,
     /// What constraints against immovable things (kinematic colliders) moved each particle by
     /// (m), summed since the substep's prediction or since a reader last cleared it; empty
-    /// unless a group of the scene has [`Stages::TAKES_PUSHES`]. A group that moves
+    /// unless a group of the scene has [`Stages::TAKES_PUSHES`] and one has
+    /// [`Stages::GIVES_PUSHES`]. A group that moves
     /// particles against something that cannot move back adds each displacement here when
     /// the slice is not empty; a group that moves particles as parts of a larger body (a rigid
     /// body) reads them as pushes on the body, answers them with the body's own mass, and
-    /// sets the entries it read back to 0. The core zeroes them after the force stage.
+    /// sets the entries it read back to 0. The core zeroes them after the prediction.
     pub pushes: RSliceMut<'a, [f64; 3]>,
     /// The same for velocity changes (m/s) made at the velocity level, after the velocity
-    /// update (restitution against a collider): written in `end_substep`, read in the next
-    /// substep's `force` stage, zeroed by the core after it.
+    /// update (restitution against a collider): written in `end_substep`, so a reader finds
+    /// them in the next substep, where they moved the particle by `h Δv` in the prediction;
+    /// zeroed by the core before the next `end_substep` stage.
     pub kicks: RSliceMut<'a, [f64; 3]>,
 }
 
@@ -393,9 +395,13 @@ impl Stages {
     pub const END_SUBSTEP: Self = Self(8);
     /// `report`: named values once per frame.
     pub const REPORT: Self = Self(16);
-    /// Not a stage: the group reads [`SolveContext::pushes`] and [`SolveContext::kicks`],
-    /// so the core keeps them (otherwise they are empty and writers skip them).
+    /// Not a stage: the group reads [`SolveContext::pushes`] and [`SolveContext::kicks`].
+    /// The core keeps them only for a scene with a group that takes them and one that gives
+    /// them ([`Stages::GIVES_PUSHES`]); otherwise they are empty and writers skip them.
     pub const TAKES_PUSHES: Self = Self(32);
+    /// Not a stage: the group writes [`SolveContext::pushes`] or [`SolveContext::kicks`]
+    /// when they are not empty.
+    pub const GIVES_PUSHES: Self = Self(64);
 
     /// Whether every stage of `other` is in `self`.
     pub const fn contains(self, other: Self) -> bool {

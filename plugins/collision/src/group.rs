@@ -3185,7 +3185,11 @@ fn frame_vertices(rest: &[DVec3], verts: &[u32]) -> Option<[u32; 3]> {
 
 impl ConstraintGroup for CollisionGroup {
     fn stages(&self) -> Stages {
-        Stages::BEGIN_SUBSTEP | Stages::PROJECT | Stages::END_SUBSTEP | Stages::REPORT
+        Stages::BEGIN_SUBSTEP
+            | Stages::PROJECT
+            | Stages::END_SUBSTEP
+            | Stages::REPORT
+            | Stages::GIVES_PUSHES
     }
 
     /// The number of collision primitives (vertices, edges, faces and colliders), or 0 when

@@ -105,7 +105,11 @@
 //! `w = 1/M + (r × n)ᵀ I⁻¹ (r × n)` (Müller et al. 2020), swept by projected Gauss-Seidel.
 //! The pushed particles first go back by their pushes, then the whole body moves: at each
 //! pass before the fit, at the end of the substep before the velocities are taken from the
-//! positions, and for the kicks in the next force stage.
+//! positions; a kick counts as the push `h Δv` it gave the particle in the next substep's
+//! prediction. Each answer first takes back the
+//! substep's earlier answers and answers the sum of the substep's pushes so far: friction
+//! answered apart from the normal pushes would turn a sliding body about its base (a slab
+//! slowed at 1.08 `μd g`; answered together, at `μd g`).
 
 //! ## Pinned particles
 //!

@@ -3,6 +3,7 @@
 //! step as a dynamically loaded plugin), plus the factory's errors.
 
 use glam::{DQuat, DVec3};
+use nucleus_core::world::Stage;
 use nucleus_core::{Registry, Simulation};
 use nucleus_sdk::prelude::*;
 
@@ -96,13 +97,8 @@ fn every_target_object_is_one_body_by_default() {
     assert_eq!(sim.groups[0].len, 2);
     assert_eq!(
         sim.groups[0].stages,
-        Stages::PROJECT
-            | Stages::END_SUBSTEP
-            | Stages::REPORT
-            | Stages::FORCE
-            | Stages::TAKES_PUSHES,
-        "free rigid bodies answer the collisions' pushes: they take them, and the kicks in the \
-         force stage"
+        Stages::PROJECT | Stages::END_SUBSTEP | Stages::REPORT | Stages::TAKES_PUSHES,
+        "free rigid bodies answer the collisions' pushes"
     );
     let stats = report(&mut sim);
     assert_eq!(stats.len(), 2 * REPORT_COLUMNS.len());
@@ -522,4 +518,81 @@ params = { groups = [{ object = "cloth", box = { min = [0.35, -1.0, 0.35], max =
         (c - DVec3::new(0.5, 0.0, 0.5)).length() > 0.2,
         "the patch moved with the cloth: {c}"
     );
+}
+
+/// The push a particle at `x` gets.
+type PushOf = fn(DVec3) -> DVec3;
+
+/// The block of [`box_scene`] without gravity, after one prediction, its particles moved by
+/// `push(x)` and the moves written into the core's pushes before each of the calls `stages`
+/// (in order), as a collision group would: its positions after.
+fn answered(stages: &[(Stage, PushOf)]) -> Vec<DVec3> {
+    let mut sim = build(&box_scene("gravity = [0.0, 0.0, 0.0]", "", "{}"));
+    // No group gives pushes here, so the core keeps none: keep them as it would with one.
+    assert!(
+        sim.particles.pushes.is_empty(),
+        "pushes kept without a giver"
+    );
+    let n = sim.particles.x.len();
+    sim.particles.pushes = vec![[0.0; 3]; n];
+    sim.particles.kicks = vec![[0.0; 3]; n];
+    sim.predict_substep(0).unwrap();
+    for (k, &(stage, push)) in stages.iter().enumerate() {
+        // As the collision does: move the particles, and say so.
+        for (p, x) in sim.particles.pushes.iter_mut().zip(&mut sim.particles.x) {
+            let by = push(DVec3::from_array(*x));
+            *x = (DVec3::from_array(*x) + by).to_array();
+            *p = by.to_array();
+        }
+        sim.run_stage(0, stage, 0, k as u32).unwrap();
+        assert!(
+            sim.particles.pushes.iter().all(|p| *p == [0.0; 3]),
+            "the pushes were not all taken"
+        );
+    }
+    sim.positions().to_vec()
+}
+
+/// A block sliding on the ground: its bottom pushed up (the normal) and back (the friction).
+fn normal(x: DVec3) -> DVec3 {
+    if x.z < 1e-9 {
+        DVec3::new(0.0, 0.0, 2e-5)
+    } else {
+        DVec3::ZERO
+    }
+}
+
+fn friction(x: DVec3) -> DVec3 {
+    if x.z < 2e-5 + 1e-9 {
+        DVec3::new(-8e-6, 0.0, 0.0)
+    } else {
+        DVec3::ZERO
+    }
+}
+
+fn both(x: DVec3) -> DVec3 {
+    normal(x) + friction(x)
+}
+
+fn nothing(_: DVec3) -> DVec3 {
+    DVec3::ZERO
+}
+
+#[test]
+fn pushes_answered_in_parts_move_the_body_as_their_sum_answered_at_once() {
+    // The block's base pushed up and back at once: it moves up and back as a whole.
+    let at_once = answered(&[(Stage::Project, both)]);
+    let start = answered(&[(Stage::Project, nothing)]);
+    for (a, s) in at_once.iter().zip(&start) {
+        let moved = *a - *s;
+        assert!(
+            (moved - DVec3::new(-8e-6, 0.0, 2e-5)).length() < 1e-15,
+            "{moved}"
+        );
+    }
+    // The normal pushes answered in a pass, the friction at the substep's end: the same.
+    let in_parts = answered(&[(Stage::Project, normal), (Stage::EndSubstep, friction)]);
+    for (a, b) in at_once.iter().zip(&in_parts) {
+        assert!((*a - *b).length() < 1e-15, "{a} against {b}");
+    }
 }
