@@ -1466,18 +1466,23 @@ mod tests {
         }
     }
 
+    /// A free body of the particles `ids` at rest positions `rest` (no pin).
+    fn free_body<'a>(ids: &'a [u32], rest: &'a [DVec3], mass: &'a [f64]) -> BodyRef<'a> {
+        BodyRef {
+            ids,
+            rest,
+            mass,
+            pinned: 0,
+            anchor: Anchor::Free,
+        }
+    }
+
     /// Random free bodies (masses and positions) with their mass properties.
     fn random_body(rng: &mut Rng, n: usize) -> (Vec<DVec3>, Vec<f64>, DVec3, f64, DMat3) {
         let x: Vec<DVec3> = (0..n).map(|_| rng.vec3(1.0)).collect();
         let mass: Vec<f64> = (0..n).map(|_| rng.range(0.1, 1.1)).collect();
         let ids: Vec<u32> = (0..n as u32).collect();
-        let body = BodyRef {
-            ids: &ids,
-            rest: &x,
-            mass: &mass,
-            pinned: 0,
-            anchor: Anchor::Free,
-        };
+        let body = free_body(&ids, &x, &mass);
         let (c, m, inertia) = mass_properties(&body, &x);
         (x, mass, c, m, inertia)
     }
@@ -1545,13 +1550,7 @@ mod tests {
             .collect();
         let ids: Vec<u32> = (0..8).collect();
         let mass = vec![0.25; 8];
-        let body = BodyRef {
-            ids: &ids,
-            rest: &corners,
-            mass: &mass,
-            pinned: 0,
-            anchor: Anchor::Free,
-        };
+        let body = free_body(&ids, &corners, &mass);
         let (c, m, inertia) = mass_properties(&body, &corners);
         let up = DVec3::Y * 0.002;
         let pushes: Vec<Push> = corners
@@ -1590,13 +1589,7 @@ mod tests {
         }
         let ids: Vec<u32> = (0..12).collect();
         let mass = vec![0.1; 12];
-        let body = BodyRef {
-            ids: &ids,
-            rest: &pts,
-            mass: &mass,
-            pinned: 0,
-            anchor: Anchor::Free,
-        };
+        let body = free_body(&ids, &pts, &mass);
         let (c, m, inertia) = mass_properties(&body, &pts);
         let pushes: Vec<Push> = pts
             .iter()
