@@ -209,7 +209,7 @@ pub struct CollisionGroup {
     /// ([`Self::start_of`]; [`StartOf::UNKNOWN`] before). Only those kinds have one: the
     /// sorted list holds the vertex–collider pairs first and the feature pairs last, so
     /// `start` holds the first `start_split[0]` candidates' and then those from
-    /// `start_split[1]` on ([`Self::start_slot`]), not a slot for every self pair.
+    /// `start_split[1]` on ([`start_slot`]), not a slot for every self pair.
     start: Vec<StartOf>,
     start_split: [usize; 2],
     /// Whether each candidate's separation was taken ahead of its visit, over the team

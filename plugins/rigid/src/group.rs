@@ -205,9 +205,8 @@ pub struct RigidGroup {
 }
 
 /// What answering the pushes on one body needs: the pushes as the body sees them and the
-/// solver's state
-/// ([`answer_pushes`]); and, per particle of the group, the pushes taken off it this substep
-/// so far (`total`, zeroed at the substep's start).
+/// solver's state ([`answer_pushes`]); and, per particle of the group, the pushes taken off
+/// it this substep so far (`total`, zeroed at the substep's start).
 ///
 /// Every answer answers *all* of the substep's pushes on the body at once: it first takes back
 /// the motion the substep's earlier answers gave the body, then answers the sum of the pushes
@@ -226,11 +225,11 @@ struct PushScratch {
 impl PushScratch {
     /// Takes the pushes (or kicks) `deltas` waiting on the free particles of `body` (whose
     /// first particle is at offset `first` in the group's arrays) off them: each entry back to
-    /// 0 and the positions `x` back by it, to where the body had the
-    /// particle; adds them to the particles' `total`, turned by `back` (the rotation that takes
-    /// back the substep's earlier answers). Each entry counts as `scale` times itself (`h`
-    /// for a kick: a velocity change moved the particle by `h Δv` in the prediction). Returns
-    /// whether any was waiting.
+    /// 0 and the positions `x` back by it, to where the body had the particle; adds them to
+    /// the particles' `total`, turned by `back` (the rotation that takes back the substep's
+    /// earlier answers). Each entry counts as `scale` times itself (`h` for a kick: a velocity
+    /// change moved the particle by `h Δv` in the prediction). Returns whether any was
+    /// waiting.
     fn undo(
         &mut self,
         body: &BodyRef<'_>,
@@ -479,9 +478,9 @@ impl RigidGroup {
         b.end - b.start > b.pinned
     }
 
-    /// Whether the body answers pushes with its own mass ([`take_pushes`]): a free body
-    /// (no pin) that is fully rigid (compliance 0). A pinned body's pins take what a push
-    /// gives, and a compliant body deforms under it, as loose particles would.
+    /// Whether the body answers pushes with its own mass ([`Self::take_position_pushes`]): a
+    /// free body (no pin) that is fully rigid (compliance 0). A pinned body's pins take what a
+    /// push gives, and a compliant body deforms under it, as loose particles would.
     fn answers_pushes(b: &Body) -> bool {
         b.alpha == 0.0 && b.anchor == Anchor::Free && Self::is_movable(b)
     }
