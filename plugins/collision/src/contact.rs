@@ -328,16 +328,7 @@ mod tests {
         assert_eq!(pushed([2.0, 1.0, 0.5, 1.5], true).0, vec![DVec3::ZERO; 4]);
         assert_eq!(pushed([1.0, 0.0, 0.0, 0.0], false).0, vec![DVec3::ZERO; 4]);
         // A collider contact: one particle, always recorded.
-        let c = Contact {
-            kind: PairKind::Collider,
-            pair: [0, 0],
-            ids: [0, 0, 0, 0],
-            w: [1.0, 0.0, 0.0, 0.0],
-            n: DVec3::Y,
-            offset: 0.0,
-            collider_disp: DVec3::ZERO,
-            dn: 0.0,
-        };
+        let c = particle_on_ground(0.0);
         assert!(c.moves_if(true, &x0, &[1.0]).is_some());
         assert!(
             c.moves_if(true, &x0, &[0.0]).is_none(),
