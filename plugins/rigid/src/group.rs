@@ -9,8 +9,8 @@ use nucleus_sdk::serde_json::{self, Value};
 use serde::{Deserialize, Serialize};
 
 use crate::matching::{
-    answer_pushes, classify_pins, fit_frame, goal_distances, mass_properties, project_goals,
-    rigidify_velocities, Anchor, BodyRef, Frame, Push, PushWork,
+    answer_pushes, answer_pushes_about, classify_pins, fit_frame, goal_distances, mass_properties,
+    pivot_properties, project_goals, rigidify_velocities, Anchor, BodyRef, Frame, Push, PushWork,
 };
 
 /// The parameters of the `rigid` kind, as written in a scene.
@@ -263,7 +263,12 @@ impl PushScratch {
         x: &[DVec3],
         scale: f64,
     ) -> (DVec3, DVec3, DVec3) {
-        let (c, m, inertia) = mass_properties(body, x);
+        // A body held by its pins turns about its pivot; a free one also translates.
+        let pivot = pivot_properties(body, x);
+        let (c, m, inertia) = match pivot {
+            Some((p, inertia, _)) => (p, f64::INFINITY, inertia),
+            None => mass_properties(body, x),
+        };
         self.pushes.clear();
         let total = &self.total[first..first + body.ids.len()];
         for (&i, &by) in body.ids.iter().zip(total).skip(body.pinned) {
@@ -274,7 +279,13 @@ impl PushScratch {
                 });
             }
         }
-        let (t, theta) = answer_pushes(m, &inertia, &self.pushes, 1e-3 * scale, &mut self.work);
+        let (t, theta) = match pivot {
+            Some((_, _, axis)) => (
+                DVec3::ZERO,
+                answer_pushes_about(&inertia, axis, &self.pushes, &mut self.work),
+            ),
+            None => answer_pushes(m, &inertia, &self.pushes, 1e-3 * scale, &mut self.work),
+        };
         (c, t, theta)
     }
 
@@ -479,10 +490,12 @@ impl RigidGroup {
     }
 
     /// Whether the body answers pushes with its own mass ([`Self::take_position_pushes`]): a
-    /// free body (no pin) that is fully rigid (compliance 0). A pinned body's pins take what a
-    /// push gives, and a compliant body deforms under it, as loose particles would.
+    /// fully rigid body (compliance 0) that is free, or held by its pins at one point (it
+    /// turns about it) or along a line (it turns about the line). A body held by three pins
+    /// or more does not move, and a compliant body deforms under a push as loose particles
+    /// would.
     fn answers_pushes(b: &Body) -> bool {
-        b.alpha == 0.0 && b.anchor == Anchor::Free && Self::is_movable(b)
+        b.alpha == 0.0 && b.anchor != Anchor::Full && Self::is_movable(b)
     }
 
     /// Whether pushes (or kicks) may wait for this group: the slice is the core's (one entry

@@ -97,17 +97,18 @@
 //! A contact against a collider moves a particle by all of its violation whatever the
 //! particle's mass; shape matching alone would move the body by the particle's share, `1/N`
 //! of it, and the penetration the body kept would come back as velocity (a ball with
-//! `restitution = 0` rebounded 24–47 % of its drop). Such moves arrive in the SDK's
-//! `pushes` (restitution's in `kicks`), and a free, fully rigid body answers them with its
-//! own mass ([`matching::answer_pushes`]): the rigid motion `(t, θ)` that moves every pushed
-//! point along its push `δ` by at least `|δ|`, each push only pushing, each impulse
+//! `restitution = 0` rebounded 24–47 % of its drop). Such moves arrive in the SDK's `pushes`
+//! (restitution's in `kicks`), and a fully rigid body answers them with its own mass
+//! ([`matching::answer_pushes`]): the rigid motion `(t, θ)` that moves every pushed point
+//! along its push `δ` by at least `|δ|`, each push only pushing, each impulse
 //! `Δλ = (|δ| − n·(t + θ × r)) / w` with the body's inverse mass at that point,
 //! `w = 1/M + (r × n)ᵀ I⁻¹ (r × n)` (Müller et al. 2020), swept by projected Gauss-Seidel.
-//! The pushed particles first go back by their pushes, then the whole body moves: at each
-//! pass before the fit, at the end of the substep before the velocities are taken from the
-//! positions; a kick counts as the push `h Δv` it gave the particle in the next substep's
-//! prediction. Each answer first takes back the
-//! substep's earlier answers and answers the sum of the substep's pushes so far: friction
+//! A body held by pins at one point or along a line only turns about them
+//! ([`matching::answer_pushes_about`]). The pushed particles first go back by their pushes,
+//! then the whole body moves: at each pass before the fit, at the end of the substep before
+//! the velocities are taken from the positions; a kick counts as the push `h Δv` it gave the
+//! particle in the next substep's prediction. Each answer first takes back the substep's
+//! earlier answers and answers the sum of the substep's pushes so far: friction
 //! answered apart from the normal pushes would turn a sliding body about its base (a slab
 //! slowed at 1.08 `μd g`; answered together, at `μd g`).
 

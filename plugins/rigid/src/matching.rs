@@ -721,6 +721,79 @@ pub fn answer_pushes(
     (t, DVec3::ZERO)
 }
 
+/// How a body held by its pins answers pushes: the rotation `θ` about its pivot after which
+/// every pushed point moved along its push by at least the push, each push only pushing —
+/// [`answer_pushes`] without the translation, which the pins forbid. `r` of each push is
+/// measured from the pivot and `inertia` is about it. With `axis` (a hinge: pins along a
+/// line through the pivot, `axis` its unit direction) the body turns about that line only,
+/// each impulse with the body's inverse mass at the point `((r × n)·a)² / I_a`; without (pins
+/// at one point) about any axis through the pivot, `(r × n)ᵀ I⁻¹ (r × n)`. A push the pins
+/// take whole (along the hinge, or through the pivot) moves nothing. The sweeps' result is
+/// kept whatever it falls short by: no translation can help.
+pub fn answer_pushes_about(
+    inertia: &DMat3,
+    axis: Option<DVec3>,
+    pushes: &[Push],
+    work: &mut Vec<PushWork>,
+) -> DVec3 {
+    work.clear();
+    let trace = inertia.x_axis.x + inertia.y_axis.y + inertia.z_axis.z;
+    let about_axis = axis.map(|a| (a, a.dot(*inertia * a)));
+    if !(trace > 0.0 && trace.is_finite()) {
+        return DVec3::ZERO;
+    }
+    let mut largest: f64 = 0.0;
+    for p in pushes {
+        let size = p.by.length();
+        if !(size > 0.0 && size.is_finite() && p.r.is_finite()) {
+            continue;
+        }
+        let dir = p.by / size;
+        let arm = p.r.cross(dir);
+        let turn = match about_axis {
+            Some((a, i_a)) if i_a > 0.0 => a * (a.dot(arm) / i_a),
+            Some(_) => DVec3::ZERO,
+            None => solve_inertia(inertia, arm),
+        };
+        let w = arm.dot(turn);
+        // Below rounding of what a push at this arm would give: the pins take it.
+        if w.is_nan() || w <= 1e-12 * p.r.length_squared() / trace {
+            continue;
+        }
+        work.push(PushWork {
+            r: p.r,
+            dir,
+            size,
+            turn,
+            w,
+            lambda: 0.0,
+        });
+        largest = largest.max(size);
+    }
+    sweep_pushes(f64::INFINITY, work, largest, true).1
+}
+
+/// The pivot of a body held by its pins (their centroid), the inertia tensor of its free
+/// particles about it, and for pins along a line (a hinge) the line's unit direction, at
+/// the positions `x`; `None` for a free body or one held by three pins or more.
+pub fn pivot_properties(body: &BodyRef<'_>, x: &[DVec3]) -> Option<(DVec3, DMat3, Option<DVec3>)> {
+    let axis = match body.anchor {
+        Anchor::Point => None,
+        Anchor::Line { e0, e1 } => {
+            let a = x[body.ids[e1 as usize] as usize] - x[body.ids[e0 as usize] as usize];
+            Some(a.try_normalize()?)
+        }
+        Anchor::Free | Anchor::Full => return None,
+    };
+    let pivot = pin_centroid(body, x);
+    let mut inertia = DMat3::ZERO;
+    for k in body.pinned..body.ids.len() {
+        let r = x[body.ids[k] as usize] - pivot;
+        inertia += (DMat3::IDENTITY * r.length_squared() - outer(r, r)) * body.mass[k];
+    }
+    Some((pivot, inertia, axis))
+}
+
 /// The relative shortfall [`answer_pushes`] always accepts from its sweeps: one millionth of
 /// the largest push.
 pub const PUSH_TOL: f64 = 1e-6;
@@ -1612,6 +1685,54 @@ mod tests {
         }
         assert!(theta.length() < 1e-3, "turned by {theta}");
         assert!(t.y < 109.35, "{t}");
+    }
+
+    #[test]
+    fn a_pinned_body_answers_a_push_by_turning_about_its_pivot_or_hinge() {
+        let mut rng = Rng(17);
+        let mut work = Vec::new();
+        for _ in 0..100 {
+            let pivot = rng.vec3(1.0);
+            let (x, mass, _, _, _) = random_body(&mut rng, 8);
+            let mut inertia = DMat3::ZERO;
+            for (p, m) in x.iter().zip(&mass) {
+                let r = *p - pivot;
+                inertia += (DMat3::IDENTITY * r.length_squared() - outer(r, r)) * *m;
+            }
+            let k = rng.pick(8);
+            let push = Push {
+                r: x[k] - pivot,
+                by: rng.vec3(0.01),
+            };
+            let dir = push.by.normalize();
+            // About a pivot: the point moves along the push by exactly the push, the pivot
+            // stays, and the turn is that of one impulse at the point.
+            let theta = answer_pushes_about(&inertia, None, &[push], &mut work);
+            let moved = theta.cross(push.r);
+            assert!((moved.dot(dir) - push.by.length()).abs() < 1e-9 * push.by.length().max(1e-3));
+            let l = inertia * theta;
+            assert!(l.cross(push.r.cross(dir)).length() < 1e-9 * l.length().max(1e-12));
+            // About a hinge: the turn is about its axis only, and still moves the point by the
+            // push along it unless the push is along the axis (the hinge takes it).
+            let axis = rng.unit();
+            let theta = answer_pushes_about(&inertia, Some(axis), &[push], &mut work);
+            assert!(
+                theta.cross(axis).length() < 1e-12 * theta.length().max(1e-12),
+                "{theta}"
+            );
+            if push.r.cross(dir).dot(axis).abs() > 1e-3 * push.r.length() {
+                let moved = theta.cross(push.r);
+                assert!(
+                    (moved.dot(dir) - push.by.length()).abs() < 1e-9 * push.by.length().max(1e-3)
+                );
+            }
+            let along = Push {
+                r: push.r,
+                by: axis * 0.01,
+            };
+            let none = answer_pushes_about(&inertia, Some(axis), &[along], &mut work);
+            assert!(none.length() < 1e-12, "{none}");
+        }
     }
 
     #[test]
