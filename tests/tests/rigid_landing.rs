@@ -115,36 +115,53 @@ fn a_rigid_ball_rebounds_to_the_square_of_its_restitution() {
     }
 }
 
+/// A scene of `frames` frames (60 a second, 10 substeps, gravity) with one rigid object,
+/// `object` its `[[objects]]` table without the header, its rigid group's `rigid` lines added,
+/// and a collision group (thickness 5 mm, no restitution, `collision` parameters added) with
+/// the ground plane.
+fn on_the_ground(frames: u32, object: &str, rigid: &str, collision: &str) -> String {
+    let name = object
+        .lines()
+        .find_map(|l| l.strip_prefix("name = "))
+        .expect("the object has a name");
+    format!(
+        r#"
+[solver]
+frame_rate = 60.0
+frames = {frames}
+substeps = 10
+gravity = [0.0, -9.81, 0.0]
+[[objects]]
+{object}
+[[constraints]]
+kind = "rigid"
+objects = [{name}]
+{rigid}
+[[constraints]]
+kind = "collision"
+params = {{ thickness = 0.005, restitution = 0.0, {collision}colliders = [
+  {{ type = "plane", point = [0.0, 0.0, 0.0], normal = [0.0, 1.0, 0.0] }},
+] }}
+"#
+    )
+}
+
 /// A 0.2 × 0.04 × 0.2 m slab of tets sliding flat on the ground at 2 m/s, dynamic friction
 /// `μd = 0.4`; `rigid_order` as in [`scene`]. Returns its deceleration over frames 2–12 as a
 /// multiple of Coulomb's `μd g`, and where it stopped (m).
 fn slide(rigid_order: Option<i64>) -> (f64, f64) {
     let order = rigid_order.map_or(String::new(), |o| format!("order = {o}\n"));
-    let text = format!(
-        r#"
-[solver]
-frame_rate = 60.0
-frames = 60
-substeps = 10
-gravity = [0.0, -9.81, 0.0]
-[[objects]]
-name = "slab"
+    let text = on_the_ground(
+        60,
+        r#"name = "slab"
 density = 500.0
 velocity = [2.0, 0.0, 0.0]
 [objects.tet_box]
 min = [-0.1, 0.005, -0.1]
 max = [0.1, 0.045, 0.1]
-resolution = [2, 1, 2]
-[[constraints]]
-kind = "rigid"
-objects = ["slab"]
-{order}
-[[constraints]]
-kind = "collision"
-params = {{ thickness = 0.005, restitution = 0.0, friction_static = 0.5, friction_dynamic = 0.4, colliders = [
-  {{ type = "plane", point = [0.0, 0.0, 0.0], normal = [0.0, 1.0, 0.0] }},
-] }}
-"#
+resolution = [2, 1, 2]"#,
+        &order,
+        "friction_static = 0.5, friction_dynamic = 0.4, ",
     );
     let mut sim = simulation(&text, &[]);
     let range = particles_of(&sim, "slab");
@@ -189,31 +206,16 @@ fn a_rigid_slab_sliding_on_the_ground_slows_at_coulombs_rate() {
 /// ground, falling about them onto the ground (`restitution = 0`): the lowest any particle is
 /// after it first touched the ground, over the rest of 90 frames (m).
 fn swing_down(pins: &str) -> f64 {
-    let text = format!(
-        r#"
-[solver]
-frame_rate = 60.0
-frames = 90
-substeps = 10
-gravity = [0.0, -9.81, 0.0]
-[[objects]]
-name = "lid"
+    let lid = format!(
+        r#"name = "lid"
 density = 700.0
 pins = [{pins}]
 [objects.tet_box]
 min = [0.0, 0.1, -0.02]
 max = [0.4, 0.12, 0.02]
-resolution = [4, 1, 1]
-[[constraints]]
-kind = "rigid"
-objects = ["lid"]
-[[constraints]]
-kind = "collision"
-params = {{ thickness = 0.005, restitution = 0.0, colliders = [
-  {{ type = "plane", point = [0.0, 0.0, 0.0], normal = [0.0, 1.0, 0.0] }},
-] }}
-"#
+resolution = [4, 1, 1]"#
     );
+    let text = on_the_ground(90, &lid, "", "");
     let mut sim = simulation(&text, &[]);
     let (mut landed, mut highest) = (false, f64::NEG_INFINITY);
     run(&mut sim, 90, |sim| {

@@ -650,12 +650,18 @@ pub fn mass_properties(body: &BodyRef<'_>, x: &[DVec3]) -> (DVec3, f64, DMat3) {
         return (origin, 0.0, DMat3::ZERO);
     }
     let c = origin + sx / m;
+    (c, m, inertia_about(body, x, c))
+}
+
+/// The inertia tensor `Σ mᵢ (|rᵢ|² 1 − rᵢ rᵢᵀ)`, `rᵢ = xᵢ − c`, of a body's free particles about
+/// the point `c`.
+fn inertia_about(body: &BodyRef<'_>, x: &[DVec3], c: DVec3) -> DMat3 {
     let mut inertia = DMat3::ZERO;
-    for k in free {
+    for k in body.pinned..body.ids.len() {
         let r = x[body.ids[k] as usize] - c;
         inertia += (DMat3::IDENTITY * r.length_squared() - outer(r, r)) * body.mass[k];
     }
-    (c, m, inertia)
+    inertia
 }
 
 /// How a free rigid body of mass `mass` and inertia `inertia` (about its centre of mass)
@@ -687,25 +693,9 @@ pub fn answer_pushes(
     if !(mass > 0.0 && mass.is_finite()) {
         return (DVec3::ZERO, DVec3::ZERO);
     }
-    let mut largest: f64 = 0.0;
-    for p in pushes {
-        let size = p.by.length();
-        if !(size > 0.0 && size.is_finite() && p.r.is_finite()) {
-            continue;
-        }
-        let dir = p.by / size;
-        let arm = p.r.cross(dir);
-        let turn = solve_inertia(inertia, arm);
-        work.push(PushWork {
-            r: p.r,
-            dir,
-            size,
-            turn,
-            w: 1.0 / mass + arm.dot(turn),
-            lambda: 0.0,
-        });
-        largest = largest.max(size);
-    }
+    let largest = set_up_pushes(pushes, 1.0 / mass, 0.0, work, |arm| {
+        solve_inertia(inertia, arm)
+    });
     let (t, theta) = sweep_pushes(mass, work, largest, true);
     if shortfall(work, t, theta) <= tolerance.max(PUSH_TOL * largest) {
         return (t, theta);
@@ -742,6 +732,27 @@ pub fn answer_pushes_about(
     if !(trace > 0.0 && trace.is_finite()) {
         return DVec3::ZERO;
     }
+    // Below rounding of what a push at an arm would give, the pins take it.
+    let largest = set_up_pushes(pushes, 0.0, 1e-12 / trace, work, |arm| match about_axis {
+        Some((a, i_a)) if i_a > 0.0 => a * (a.dot(arm) / i_a),
+        Some(_) => DVec3::ZERO,
+        None => solve_inertia(inertia, arm),
+    });
+    sweep_pushes(f64::INFINITY, work, largest, true).1
+}
+
+/// [`answer_pushes`]' and [`answer_pushes_about`]'s work list: for every finite, non-zero
+/// push, its direction `n`, size, the turn `turn(r × n)` a unit impulse gives the body and
+/// the body's inverse mass at the point along `n`, `w = inv_mass + (r × n)·turn`. A push whose
+/// `w` is NaN or at most `min_w |r|²` is left out (the pins take it). Returns the largest
+/// push kept (0 for none).
+fn set_up_pushes(
+    pushes: &[Push],
+    inv_mass: f64,
+    min_w: f64,
+    work: &mut Vec<PushWork>,
+    turn: impl Fn(DVec3) -> DVec3,
+) -> f64 {
     let mut largest: f64 = 0.0;
     for p in pushes {
         let size = p.by.length();
@@ -750,14 +761,9 @@ pub fn answer_pushes_about(
         }
         let dir = p.by / size;
         let arm = p.r.cross(dir);
-        let turn = match about_axis {
-            Some((a, i_a)) if i_a > 0.0 => a * (a.dot(arm) / i_a),
-            Some(_) => DVec3::ZERO,
-            None => solve_inertia(inertia, arm),
-        };
-        let w = arm.dot(turn);
-        // Below rounding of what a push at this arm would give: the pins take it.
-        if w.is_nan() || w <= 1e-12 * p.r.length_squared() / trace {
+        let turn = turn(arm);
+        let w = inv_mass + arm.dot(turn);
+        if w.is_nan() || w <= min_w * p.r.length_squared() {
             continue;
         }
         work.push(PushWork {
@@ -770,7 +776,7 @@ pub fn answer_pushes_about(
         });
         largest = largest.max(size);
     }
-    sweep_pushes(f64::INFINITY, work, largest, true).1
+    largest
 }
 
 /// The pivot of a body held by its pins (their centroid), the inertia tensor of its free
@@ -786,12 +792,7 @@ pub fn pivot_properties(body: &BodyRef<'_>, x: &[DVec3]) -> Option<(DVec3, DMat3
         Anchor::Free | Anchor::Full => return None,
     };
     let pivot = pin_centroid(body, x);
-    let mut inertia = DMat3::ZERO;
-    for k in body.pinned..body.ids.len() {
-        let r = x[body.ids[k] as usize] - pivot;
-        inertia += (DMat3::IDENTITY * r.length_squared() - outer(r, r)) * body.mass[k];
-    }
-    Some((pivot, inertia, axis))
+    Some((pivot, inertia_about(body, x, pivot), axis))
 }
 
 /// The relative shortfall [`answer_pushes`] always accepts from its sweeps: one millionth of
@@ -1694,11 +1695,8 @@ mod tests {
         for _ in 0..100 {
             let pivot = rng.vec3(1.0);
             let (x, mass, _, _, _) = random_body(&mut rng, 8);
-            let mut inertia = DMat3::ZERO;
-            for (p, m) in x.iter().zip(&mass) {
-                let r = *p - pivot;
-                inertia += (DMat3::IDENTITY * r.length_squared() - outer(r, r)) * *m;
-            }
+            let ids: Vec<u32> = (0..8).collect();
+            let inertia = inertia_about(&free_body(&ids, &x, &mass), &x, pivot);
             let k = rng.pick(8);
             let push = Push {
                 r: x[k] - pivot,
