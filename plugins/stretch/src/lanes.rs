@@ -283,7 +283,7 @@ mod avx2 {
     /// [`project_distance_hard`]'s step `s = (L − |d|) |d| / (Σw d·u)`.
     ///
     /// # Safety
-    /// As [`project_colour_hard`](super::project_colour_hard); `x0` and `w` have one length; AVX2
+    /// As [`project_colour_hard`]; `x0` and `w` have one length; AVX2
     /// is present.
     #[target_feature(enable = "avx2")]
     pub(super) unsafe fn project_fours(
