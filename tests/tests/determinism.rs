@@ -84,10 +84,11 @@ fn two_runs_of_the_default_scene_are_bit_identical() {
 }
 
 #[test]
-fn one_and_two_threads_give_bit_identical_frames() {
+fn one_two_and_three_threads_give_bit_identical_frames() {
     // 96 × 96: every colour of the stretch batch is large enough to be split over threads, and
     // the 9,216 particles are enough for the core's loops to be split too (damping on, so its
-    // loop is among them).
+    // loop is among them). Three threads split every range unevenly (and oversubscribe a
+    // 2-core machine, which changes which thread claims which part, not the bits).
     let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/drape.toml");
     let set = [
         "--set",
@@ -100,6 +101,8 @@ fn one_and_two_threads_give_bit_identical_frames() {
     let a = run_with("threads-1", scene, "1", &set);
     let b = run_with("threads-2", scene, "2", &set);
     assert_same_frames(&a, &b, 4, "1 and 2 threads");
+    let c = run_with("threads-3", scene, "3", &set);
+    assert_same_frames(&a, &c, 4, "1 and 3 threads");
 }
 
 #[test]
@@ -314,7 +317,7 @@ params = { blocks = "stars" }
 }
 
 #[test]
-fn a_cloth_colliding_with_itself_and_a_sphere_gives_the_same_bits_on_one_and_two_threads() {
+fn a_cloth_colliding_with_itself_and_a_sphere_gives_the_same_bits_on_one_two_and_three_threads() {
     // 32 × 32 (1,024 vertices, 2,945 edges): the broad phase's vertex–face and edge–edge
     // queries are split over the team; the cloth reaches the sphere and folds over it.
     let dir = temp_dir("collision-threads-scene");
@@ -349,6 +352,9 @@ params = { thickness = 0.01, friction_static = 0.3, friction_dynamic = 0.2, coll
     let b = run_with("collision-threads-2", scene, "2", &[]);
     assert_same_frames(&a, &b, 24, "1 and 2 threads");
     assert_eq!(stats_without_wall(&a), stats_without_wall(&b));
+    let c = run_with("collision-threads-3", scene, "3", &[]);
+    assert_same_frames(&a, &c, 24, "1 and 3 threads");
+    assert_eq!(stats_without_wall(&a), stats_without_wall(&c));
     // Meaningful only if the cloth met the sphere and itself: contacts in the last frames.
     let stats = stats_without_wall(&a);
     let header: Vec<&str> = stats[0].split(',').collect();
