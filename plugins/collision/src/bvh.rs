@@ -96,6 +96,8 @@ struct Node {
     count: u32,
     /// Inner: index of the right child.
     right: u32,
+    /// The largest primitive index under the node (for [`Bvh::query_above`]).
+    max_index: u32,
 }
 
 /// A bounding volume hierarchy over a fixed set of primitives.
@@ -129,6 +131,7 @@ impl Bvh {
             first: lo as u32,
             count: (hi - lo) as u32,
             right: 0,
+            max_index: self.order[lo..hi].iter().copied().max().unwrap_or(0),
         });
         if hi - lo <= LEAF_SIZE {
             return index;
@@ -214,6 +217,42 @@ impl Bvh {
             if n.count > 0 {
                 for &i in &self.order[n.first as usize..(n.first + n.count) as usize] {
                     if boxes[i as usize].overlaps(query) {
+                        hit(i);
+                    }
+                }
+            } else {
+                stack.push(n.right);
+                stack.push(n.first);
+            }
+        }
+    }
+
+    /// As [`query`](Self::query), for the primitives `i > above` only: the same hits in the
+    /// same order as `query` filtered by `i > above`, but a subtree whose primitives all come
+    /// before is not entered. For a self query (edge against edge) that finds each pair from
+    /// its lower index, this skips about half the tree's nodes whose boxes the query meets.
+    #[inline]
+    pub fn query_above(
+        &self,
+        query: &Aabb,
+        above: u32,
+        boxes: &[Aabb],
+        stack: &mut Vec<u32>,
+        mut hit: impl FnMut(u32),
+    ) {
+        if self.nodes.is_empty() {
+            return;
+        }
+        stack.clear();
+        stack.push(0);
+        while let Some(k) = stack.pop() {
+            let n = &self.nodes[k as usize];
+            if n.max_index <= above || !n.aabb.overlaps(query) {
+                continue;
+            }
+            if n.count > 0 {
+                for &i in &self.order[n.first as usize..(n.first + n.count) as usize] {
+                    if i > above && boxes[i as usize].overlaps(query) {
                         hit(i);
                     }
                 }
@@ -395,6 +434,36 @@ mod tests {
                 assert_eq!(got, want);
             }
         }
+    }
+
+    #[test]
+    fn a_query_above_an_index_gives_the_hits_of_a_query_past_it_in_the_same_order() {
+        let mut seed = 11;
+        let boxes = random_boxes(300, &mut seed, 0.04);
+        let mut bvh = Bvh::build(&boxes);
+        let mut stack = Vec::new();
+        for round in 0..3 {
+            let moved = random_boxes(300, &mut seed, 0.04 * (round + 1) as f64);
+            bvh.refit(&moved);
+            for (k, q) in random_boxes(60, &mut seed, 0.1).iter().enumerate() {
+                let above = (k * 5) as u32; // 0 … 295, past the end too
+                let mut all = Vec::new();
+                bvh.query(q, &moved, &mut stack, |i| all.push(i));
+                all.retain(|&i| i > above);
+                let mut got = Vec::new();
+                bvh.query_above(q, above, &moved, &mut stack, |i| got.push(i));
+                assert_eq!(got, all, "query {k} above {above}");
+            }
+        }
+        let mut none = Vec::new();
+        bvh.query_above(
+            &Aabb::of_points(&[DVec3::ZERO], 10.0),
+            299,
+            &boxes,
+            &mut stack,
+            |i| none.push(i),
+        );
+        assert!(none.is_empty());
     }
 
     #[test]

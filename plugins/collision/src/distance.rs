@@ -99,6 +99,58 @@ pub fn point_triangle_closest(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> ([f64; 
     best
 }
 
+/// The squared distance from `p` to triangle `(a, b, c)`: [`point_triangle_closest`]'s to
+/// rounding, in about half its work, for the separations a pass keeps
+/// ([`crate::pairs::vertex_face_separation`]). The Voronoi region of `p` (a corner, an edge or
+/// the face) found from six dot products, then the one closest point of that region
+/// (Ericson, *Real-Time Collision Detection*, 5.1.5): exact for a proper triangle. Slivers
+/// (the squared sine of the angle at `a` at most 1e-6) and degenerate ones take
+/// [`point_triangle_closest`]'s candidates instead.
+#[inline]
+pub fn point_triangle_distance_squared(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> f64 {
+    let ab = b - a;
+    let ac = c - a;
+    let (abab, acac, abac) = (ab.dot(ab), ac.dot(ac), ab.dot(ac));
+    // A NaN is not well conditioned either: the robust path decides.
+    let well_conditioned = abab * acac - abac * abac > 1e-6 * abab * acac;
+    if !well_conditioned {
+        return point_triangle_closest(p, a, b, c).1;
+    }
+    let ap = p - a;
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return ap.length_squared();
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return bp.length_squared();
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        let v = d1 / (d1 - d3);
+        return (ap - v * ab).length_squared();
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return cp.length_squared();
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        let w = d2 / (d2 - d6);
+        return (ap - w * ac).length_squared();
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0 {
+        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return (bp - w * (c - b)).length_squared();
+    }
+    let denom = 1.0 / (va + vb + vc);
+    let (v, w) = (vb * denom, vc * denom);
+    (ap - v * ab - w * ac).length_squared()
+}
+
 /// Closest points between segments `(a, b)` and `(c, d)`: returns `(s, t, squared distance)`
 /// with the points `a + s (b − a)` and `c + t (d − c)`, `s, t ∈ [0, 1]`. Robust for parallel
 /// and zero-length segments: the minimum is either the interior stationary point (used when
@@ -137,6 +189,38 @@ pub fn segment_segment_closest(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> (f64, 
         }
     }
     best
+}
+
+/// The squared distance between segments `(a, b)` and `(c, d)`: [`segment_segment_closest`]'s
+/// to rounding, in about a third of its work, for the separations a pass keeps
+/// ([`crate::pairs::edge_edge_separation`]). The stationary point of `|a + s u − c − t v|²`
+/// with `s` clamped, `t` solved for that `s` and, if it falls outside, clamped with `s` solved
+/// again (Ericson, *Real-Time Collision Detection*, 5.1.9): exact for segments that are not
+/// parallel. Near-parallel pairs (`sin² θ ≤ 1e-6`) and zero-length ones, where the stationary
+/// point is ill-conditioned, take [`segment_segment_closest`]'s candidates instead.
+#[inline]
+pub fn segment_segment_distance_squared(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> f64 {
+    let u = b - a;
+    let v = d - c;
+    let (uu, vv, uv) = (u.dot(u), v.dot(v), u.dot(v));
+    let det = uu * vv - uv * uv;
+    // A NaN is not well conditioned either: the robust path decides.
+    let well_conditioned = det > 1e-6 * uu * vv;
+    if !well_conditioned {
+        return segment_segment_closest(a, b, c, d).2;
+    }
+    let r = a - c;
+    let (ur, vr) = (u.dot(r), v.dot(r));
+    let s = ((uv * vr - ur * vv) / det).clamp(0.0, 1.0);
+    let t = (uv * s + vr) / vv;
+    let (s, t) = if t < 0.0 {
+        ((-ur / uu).clamp(0.0, 1.0), 0.0)
+    } else if t > 1.0 {
+        (((uv - ur) / uu).clamp(0.0, 1.0), 1.0)
+    } else {
+        (s, t)
+    };
+    (r + s * u - t * v).length_squared()
 }
 
 /// Exact triangle–triangle intersection test of the closed triangles `t1` and `t2`
@@ -626,6 +710,69 @@ mod tests {
             }
             assert!(d2 <= sampled + 1e-12, "closest {d2} > sampled {sampled}");
         }
+    }
+
+    #[test]
+    fn the_quick_segment_distance_is_the_robust_one_to_rounding() {
+        let mut rng = Rng(23);
+        let mut quick_paths = 0;
+        for k in 0..3000 {
+            let scale = [1.0, 1e-3, 1e3][k % 3];
+            let (a, b, c) = (rng.vec3(scale), rng.vec3(scale), rng.vec3(scale));
+            // Exactly and nearly parallel, zero-length, short against long, and general.
+            let d = match k % 10 {
+                0 => c + 0.7 * (b - a),
+                1 => c + 0.7 * (b - a) + rng.vec3(1e-5 * scale),
+                2 => c,
+                3 => c + rng.vec3(1e-4 * scale),
+                _ => rng.vec3(scale),
+            };
+            let robust = segment_segment_closest(a, b, c, d).2;
+            let quick = segment_segment_distance_squared(a, b, c, d);
+            let size2 = [a, b, c, d].iter().map(|p| p.length_squared()).sum::<f64>();
+            assert!(
+                (quick - robust).abs() <= 1e-13 * size2,
+                "case {k}: quick {quick:e} robust {robust:e}"
+            );
+            let u = b - a;
+            let v = d - c;
+            let det = u.length_squared() * v.length_squared() - u.dot(v).powi(2);
+            quick_paths += usize::from(det > 1e-6 * u.length_squared() * v.length_squared());
+        }
+        // Most general pairs take the quick path (the clamped stationary point).
+        assert!(quick_paths > 1800, "{quick_paths}");
+    }
+
+    #[test]
+    fn the_quick_point_triangle_distance_is_the_robust_one_to_rounding() {
+        let mut rng = Rng(29);
+        let mut quick_paths = 0;
+        for k in 0..3000 {
+            let scale = [1.0, 1e-3, 1e3][k % 3];
+            let (a, b, p) = (rng.vec3(scale), rng.vec3(scale), rng.vec3(1.5 * scale));
+            // Degenerate (a point, a segment), slivers, near the plane, and general.
+            let (c, p) = match k % 10 {
+                0 => (a, p),
+                1 => (a + 0.4 * (b - a), p),
+                2 => (a + 0.4 * (b - a) + rng.vec3(1e-5 * scale), p),
+                3 => {
+                    let c = rng.vec3(scale);
+                    (c, (a + b + c) / 3.0 + rng.vec3(1e-6 * scale))
+                }
+                _ => (rng.vec3(scale), p),
+            };
+            let robust = point_triangle_closest(p, a, b, c).1;
+            let quick = point_triangle_distance_squared(p, a, b, c);
+            let size2 = [a, b, c, p].iter().map(|q| q.length_squared()).sum::<f64>();
+            assert!(
+                (quick - robust).abs() <= 1e-13 * size2,
+                "case {k}: quick {quick:e} robust {robust:e}"
+            );
+            let (ab, ac) = (b - a, c - a);
+            let det = ab.length_squared() * ac.length_squared() - ab.dot(ac).powi(2);
+            quick_paths += usize::from(det > 1e-6 * ab.length_squared() * ac.length_squared());
+        }
+        assert!(quick_paths > 2000, "{quick_paths}");
     }
 
     /// Exact `det[b − a; c − a; d − a]` of integer points, in i128.

@@ -1901,11 +1901,12 @@ impl CollisionGroup {
     ) {
         for i in edges {
             let from = out.len();
-            self.edge_bvh
-                .query(&self.edge_boxes[i], &self.edge_boxes, stack, |j| {
-                    if j as usize <= i {
-                        return;
-                    }
+            self.edge_bvh.query_above(
+                &self.edge_boxes[i],
+                i as u32,
+                &self.edge_boxes,
+                stack,
+                |j| {
                     if let Some(d) = self.edge_edge_reach(i, j, inv_mass) {
                         let pair = [i as u32, j];
                         out.push((
@@ -1916,7 +1917,8 @@ impl CollisionGroup {
                             d,
                         ));
                     }
-                });
+                },
+            );
             sort_by_second(out, from);
         }
     }

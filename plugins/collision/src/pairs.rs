@@ -192,8 +192,8 @@ impl Separation {
 
 /// The separation of vertex `0` against triangle `(1, 2, 3)`.
 pub fn vertex_face_separation(tr: &[Track; 4]) -> Separation {
-    let (_, d0) = distance::point_triangle_closest(tr[0].x0, tr[1].x0, tr[2].x0, tr[3].x0);
-    let (_, d1) = distance::point_triangle_closest(tr[0].x1, tr[1].x1, tr[2].x1, tr[3].x1);
+    let d0 = distance::point_triangle_distance_squared(tr[0].x0, tr[1].x0, tr[2].x0, tr[3].x0);
+    let d1 = distance::point_triangle_distance_squared(tr[0].x1, tr[1].x1, tr[2].x1, tr[3].x1);
     Separation {
         d0: d0.sqrt(),
         d1: d1.sqrt(),
@@ -203,8 +203,8 @@ pub fn vertex_face_separation(tr: &[Track; 4]) -> Separation {
 
 /// The separation of edge `(0, 1)` against edge `(2, 3)`.
 pub fn edge_edge_separation(tr: &[Track; 4]) -> Separation {
-    let (_, _, d0) = distance::segment_segment_closest(tr[0].x0, tr[1].x0, tr[2].x0, tr[3].x0);
-    let (_, _, d1) = distance::segment_segment_closest(tr[0].x1, tr[1].x1, tr[2].x1, tr[3].x1);
+    let d0 = distance::segment_segment_distance_squared(tr[0].x0, tr[1].x0, tr[2].x0, tr[3].x0);
+    let d1 = distance::segment_segment_distance_squared(tr[0].x1, tr[1].x1, tr[2].x1, tr[3].x1);
     Separation {
         d0: d0.sqrt(),
         d1: d1.sqrt(),
