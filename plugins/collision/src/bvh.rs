@@ -227,6 +227,22 @@ impl Bvh {
         }
     }
 
+    /// [`query`](Self::query) when `wanted`, else nothing (a query every hit of which would
+    /// be dropped).
+    #[inline]
+    pub fn query_if(
+        &self,
+        wanted: bool,
+        query: &Aabb,
+        boxes: &[Aabb],
+        stack: &mut Vec<u32>,
+        hit: impl FnMut(u32),
+    ) {
+        if wanted {
+            self.query(query, boxes, stack, hit);
+        }
+    }
+
     /// As [`query`](Self::query), for the primitives `i > above` only: the same hits in the
     /// same order as `query` filtered by `i > above`, but a subtree whose primitives all come
     /// before is not entered. For a self query (edge against edge) that finds each pair from

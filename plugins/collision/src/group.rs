@@ -93,6 +93,10 @@ pub struct CollisionGroup {
     push_out_speed: f64,
     /// Settings of each target object (group-local object index).
     settings: Vec<ObjectSettings>,
+    /// Whether each target object may collide with any target object, itself included
+    /// ([`Self::objects_may_collide`]): the mesh queries of an object that meets none are not
+    /// made, since every pair they would find is dropped.
+    meets_objects: Vec<bool>,
     /// Name of each target object, for errors.
     names: Vec<String>,
     /// The most candidate pairs the group holds ([`candidate_budget`]); more is an error.
@@ -603,6 +607,7 @@ impl CollisionGroup {
             mu_dynamic: params.friction_dynamic,
             push_out_speed: params.push_out_speed,
             settings,
+            meets_objects: Vec::new(),
             names: names.iter().map(|n| n.to_string()).collect(),
             candidate_budget: usize::MAX,
             over_budget: 0,
@@ -692,6 +697,10 @@ impl CollisionGroup {
             stats: FrameStats::default(),
         };
 
+        let objects = g.settings.len() as u32;
+        g.meets_objects = (0..objects)
+            .map(|a| (0..objects).any(|b| g.objects_may_collide(a, b)))
+            .collect();
         let mut dynamic_objects = Vec::new();
         for (k, &(_, o)) in targets.iter().enumerate() {
             let s = g.settings[k];
@@ -1597,6 +1606,9 @@ impl CollisionGroup {
             match kind {
                 0 => {
                     let i = k as usize;
+                    if !self.meets_objects[self.vert_obj[i] as usize] {
+                        continue;
+                    }
                     self.face_bvh
                         .query(&self.vert_boxes[i], &self.face_boxes, stack, |f| {
                             if let Some(d) = self.vertex_face_reach(i, f, inv_mass) {
@@ -1607,7 +1619,9 @@ impl CollisionGroup {
                 }
                 1 => {
                     let f = k;
-                    self.vert_bvh.query(
+                    let meets = self.meets_objects[self.face_obj[f as usize] as usize];
+                    self.vert_bvh.query_if(
+                        meets,
                         &self.face_boxes[f as usize],
                         &self.vert_boxes,
                         stack,
@@ -1637,8 +1651,13 @@ impl CollisionGroup {
                 }
                 _ => {
                     let i = k as usize;
-                    self.edge_bvh
-                        .query(&self.edge_boxes[i], &self.edge_boxes, stack, |j| {
+                    let meets = self.meets_objects[self.edge_obj[i] as usize];
+                    self.edge_bvh.query_if(
+                        meets,
+                        &self.edge_boxes[i],
+                        &self.edge_boxes,
+                        stack,
+                        |j| {
                             let ju = j as usize;
                             if ju == i || (self.escaped_edges[ju] && ju < i) {
                                 return; // itself, or found from the other escaped edge
@@ -1654,7 +1673,8 @@ impl CollisionGroup {
                                     d,
                                 ));
                             }
-                        });
+                        },
+                    );
                     let features = (self.feat_points.iter().map(|f| f.0))
                         .zip(&self.feat_point_boxes)
                         .map(|(c, &b)| (PairKind::FeaturePointEdge, c, b))
@@ -1872,6 +1892,9 @@ impl CollisionGroup {
         out: &mut Vec<(Candidate, f64)>,
     ) {
         for i in verts {
+            if !self.meets_objects[self.vert_obj[i] as usize] {
+                continue;
+            }
             let from = out.len();
             self.face_bvh
                 .query(&self.vert_boxes[i], &self.face_boxes, stack, |f| {
@@ -1900,6 +1923,9 @@ impl CollisionGroup {
         out: &mut Vec<(Candidate, f64)>,
     ) {
         for i in edges {
+            if !self.meets_objects[self.edge_obj[i] as usize] {
+                continue;
+            }
             let from = out.len();
             self.edge_bvh.query_above(
                 &self.edge_boxes[i],
