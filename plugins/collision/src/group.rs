@@ -2021,7 +2021,17 @@ impl CollisionGroup {
                 let (p, f) = (self.verts[a], self.edges[b]);
                 [p, p, f[0], f[1]]
             }
-            _ => [0; 4],
+            PairKind::VertexVertex => [0; 4],
+            PairKind::Collider => [self.verts[b]; 4],
+            // The feature's slots hold no particle: the primitive's first stands in.
+            PairKind::FeatureFace => {
+                let t = self.faces[b];
+                [t[0], t[0], t[1], t[2]]
+            }
+            PairKind::FeaturePointEdge | PairKind::FeatureEdgeEdge => {
+                let e = self.edges[b];
+                [e[0], e[0], e[0], e[1]]
+            }
         }
     }
 
@@ -2042,6 +2052,20 @@ impl CollisionGroup {
         !s.d0.is_nan() && s.certainly_apart(self.separation_moved[k] + self.candidate_moved(k), d)
     }
 
+    /// [`Self::skip`] with the motion since measured at `x` rather than kept in `moved`.
+    #[inline]
+    fn skip_at(&self, k: usize, d: f64, x: &[DVec3]) -> bool {
+        let s = &self.separation[k];
+        if s.d0.is_nan() {
+            return false;
+        }
+        let now = self.cand_ids[k].iter().fold(0.0f64, |m, &i| {
+            let i = i as usize;
+            m.max((x[i] - self.x_ref[i]).length())
+        });
+        s.certainly_apart(self.separation_moved[k] + now, d)
+    }
+
     /// The tracks of candidate `k`'s particles over `[x0, x]`, written out (an array `map`
     /// stayed an out-of-line call).
     #[inline(always)]
@@ -2055,10 +2079,70 @@ impl CollisionGroup {
         ]
     }
 
-    /// Takes and keeps candidate `k`'s separation over `[x0, x]` (for the kinds with a
-    /// prefilter; `None` for the others), the first time a pass tests it.
+    /// Candidate `k`'s separation over `[x0, x]`, for the kinds whose test it decides
+    /// exactly: the mesh pairs with a prefilter ([`pairs::separation`]), a collider's feature
+    /// against a face or an edge (the same tests on the feature's track over the substep), and
+    /// a vertex against a plane or a sphere ([`pairs::collider_separation`]). `None` for the
+    /// kinds without one.
+    fn separation_at(&self, k: usize, x0: &[DVec3], x: &[DVec3]) -> Option<Separation> {
+        let cand = self.candidates[k];
+        let a = cand.pair[0] as usize;
+        match cand.kind {
+            PairKind::VertexFace | PairKind::EdgeEdge | PairKind::VertexEdge => {
+                pairs::separation(cand.kind, &self.candidate_tracks(k, x0, x))
+            }
+            PairKind::VertexVertex => None,
+            PairKind::Collider => {
+                let p = self.cand_ids[k][0] as usize;
+                let q0 = self.pose0[a].inverse_apply(x0[p]);
+                let q1 = self.pose1[a].inverse_apply(x[p]);
+                pairs::collider_separation(&self.colliders[a].shape, q0, q1)
+            }
+            PairKind::FeatureFace | PairKind::FeaturePointEdge | PairKind::FeatureEdgeEdge => {
+                let (kind, tr) = self.feature_tracks(cand, &self.cand_ids[k], x0, x);
+                pairs::separation(kind, &tr)
+            }
+        }
+    }
+
+    /// A feature candidate's tracks over `[x0, x]` with the feature's in its slots (`ids` its
+    /// [`Self::candidate_ids`]), and the mesh kind whose test it takes.
+    #[inline]
+    fn feature_tracks(
+        &self,
+        cand: Candidate,
+        ids: &[u32; 4],
+        x0: &[DVec3],
+        x: &[DVec3],
+    ) -> (PairKind, [Track; 4]) {
+        let a = cand.pair[0] as usize;
+        let mut tr = ids.map(|i| track(x0, x, i));
+        let kind = match cand.kind {
+            PairKind::FeatureFace => {
+                let [p0, p1] = self.feat_point_tracks[a];
+                tr[0] = Track { x0: p0, x1: p1 };
+                PairKind::VertexFace
+            }
+            PairKind::FeaturePointEdge => {
+                let [p0, p1] = self.feat_point_tracks[a];
+                tr[0] = Track { x0: p0, x1: p1 };
+                tr[1] = tr[0];
+                PairKind::VertexEdge
+            }
+            _ => {
+                let [a0, b0, a1, b1] = self.feat_edge_tracks[a];
+                tr[0] = Track { x0: a0, x1: a1 };
+                tr[1] = Track { x0: b0, x1: b1 };
+                PairKind::EdgeEdge
+            }
+        };
+        (kind, tr)
+    }
+
+    /// Takes and keeps candidate `k`'s separation over `[x0, x]` ([`Self::separation_at`];
+    /// `None` for the kinds without one), the first time a pass tests it.
     fn take_separation(&mut self, k: usize, x0: &[DVec3], x: &[DVec3]) -> Option<Separation> {
-        let s = pairs::separation(self.candidates[k].kind, &self.candidate_tracks(k, x0, x))?;
+        let s = self.separation_at(k, x0, x)?;
         self.separation[k] = s;
         self.separation_moved[k] = self.candidate_moved(k);
         Some(s)
@@ -2151,39 +2235,18 @@ impl CollisionGroup {
             // A collider's feature is a kinematic point or segment that is no particle: the
             // query runs on its world track over the substep like a mesh collider's vertex,
             // then its slots are folded into the contact's offset.
-            PairKind::FeatureFace => {
-                let [p0, p1] = self.feat_point_tracks[a as usize];
-                let t = self.faces[b as usize];
-                let ids = [t[0], t[0], t[1], t[2]];
-                let mut tr = ids.map(track);
-                tr[0] = Track { x0: p0, x1: p1 };
-                let mut c = pairs::vertex_face(cand.pair, ids, &tr, d)?;
-                c.kind = PairKind::FeatureFace;
-                pairs::fold_kinematic(&mut c, &[0], &tr);
-                Some(c)
-            }
-            PairKind::FeaturePointEdge => {
-                let [p0, p1] = self.feat_point_tracks[a as usize];
-                let e = self.edges[b as usize];
-                let ids = [e[0], e[0], e[0], e[1]];
-                let mut tr = ids.map(track);
-                tr[0] = Track { x0: p0, x1: p1 };
-                tr[1] = tr[0];
-                let mut c = pairs::vertex_edge(cand.pair, ids, &tr, d)?;
-                c.kind = PairKind::FeaturePointEdge;
-                pairs::fold_kinematic(&mut c, &[0, 1], &tr);
-                Some(c)
-            }
-            PairKind::FeatureEdgeEdge => {
-                let [a0, b0, a1, b1] = self.feat_edge_tracks[a as usize];
-                let e = self.edges[b as usize];
-                let ids = [e[0], e[0], e[0], e[1]];
-                let mut tr = ids.map(track);
-                tr[0] = Track { x0: a0, x1: a1 };
-                tr[1] = Track { x0: b0, x1: b1 };
-                let mut c = pairs::edge_edge(cand.pair, ids, &tr, d)?;
-                c.kind = PairKind::FeatureEdgeEdge;
-                pairs::fold_kinematic(&mut c, &[0, 1], &tr);
+            PairKind::FeatureFace | PairKind::FeaturePointEdge | PairKind::FeatureEdgeEdge => {
+                let ids = self.candidate_ids(cand);
+                let (kind, tr) = self.feature_tracks(cand, &ids, x0, x);
+                let s = known.or_else(|| pairs::separation(kind, &tr))?;
+                let mut c = pairs::separated_contact(kind, s, cand.pair, ids, &tr, d)?;
+                let kinematic: &[usize] = if cand.kind == PairKind::FeatureFace {
+                    &[0]
+                } else {
+                    &[0, 1]
+                };
+                c.kind = cand.kind;
+                pairs::fold_kinematic(&mut c, kinematic, &tr);
                 Some(c)
             }
         }
@@ -2256,16 +2319,10 @@ impl CollisionGroup {
                     )
                 };
                 for (i, k) in r.enumerate() {
-                    let cand = this.candidates[k];
-                    let prefilter = matches!(
-                        cand.kind,
-                        PairKind::VertexFace | PairKind::EdgeEdge | PairKind::VertexEdge
-                    );
-                    if !prefilter || !sep[i].d0.is_nan() {
+                    if !sep[i].d0.is_nan() {
                         continue;
                     }
-                    let tr = this.candidate_tracks(k, x0, x);
-                    if let Some(s) = pairs::separation(cand.kind, &tr) {
+                    if let Some(s) = this.separation_at(k, x0, x) {
                         sep[i] = s;
                         mov[i] = this.candidate_moved(k);
                         ahd[i] = true;
@@ -2382,6 +2439,7 @@ impl CollisionGroup {
         inv_mass: &[f64],
         pushes: &mut [DVec3],
     ) {
+        self.update_moved(x);
         for k in 0..self.candidates.len() {
             let Some((c, p, r)) = self.dynamic_collider_pair(self.candidates[k], inv_mass) else {
                 continue;
@@ -2390,7 +2448,13 @@ impl CollisionGroup {
             if start.leaves == Leaves::OffAxis {
                 if let Some(exit) = self.axis_exit(c, self.axis_parameter(c, x0[p])) {
                     self.slide_off_axis(exit, p, r, x0, x, pushes);
+                    self.moved[p] = (x[p] - self.x_ref[p]).length();
                 }
+                continue;
+            }
+            // Certainly farther than `r` from a plane or a sphere: the test below would leave
+            // it (the pass's certificate, kept with the motion since: [`Self::skip`]).
+            if self.skip(k, r) {
                 continue;
             }
             let col = &self.colliders[c];
@@ -2407,6 +2471,7 @@ impl CollisionGroup {
                     pushes[p] += to - x[p];
                 }
                 x[p] = to;
+                self.moved[p] = (x[p] - self.x_ref[p]).length();
             }
         }
     }
@@ -2447,6 +2512,7 @@ impl CollisionGroup {
         pushes: &mut [DVec3],
     ) -> f64 {
         let mut worst: f64 = 0.0;
+        self.update_moved(x);
         for k in 0..self.candidates.len() {
             let cand = self.candidates[k];
             if !cand.kind.is_feature() {
@@ -2457,6 +2523,15 @@ impl CollisionGroup {
             if start.leaves == Leaves::OffAxis {
                 let left = self.push_off_axis(cand, self.reach[k], x0, x, inv_mass, pushes);
                 worst = worst.max(left);
+                let ids = self.cand_ids[k];
+                self.update_moved_of(&ids, x);
+                continue;
+            }
+            // Certainly farther than its reach from the feature (the pass's certificate, with
+            // the motion since: [`Self::skip`]), which for any collider but a box is the
+            // signed distance below; a box's side is also inside, so a box is always tested.
+            if !matches!(self.colliders[c].shape, Shape::Box { .. }) && self.skip(k, self.reach[k])
+            {
                 continue;
             }
             let side = self.feature_side(cand, x, self.pose1[c]);
@@ -2487,6 +2562,7 @@ impl CollisionGroup {
                     if !pushes.is_empty() {
                         pushes[i] += inv_mass[i] * w[j] * step;
                     }
+                    self.moved[i] = (x[i] - self.x_ref[i]).length();
                 }
             }
         }
@@ -3135,6 +3211,16 @@ impl CollisionGroup {
         }
         for (k, cand) in self.candidates.iter().enumerate() {
             let (a, b) = (cand.pair[0] as usize, cand.pair[1] as usize);
+            // A pair certainly beyond its reach adds nothing (a box's features excepted: their
+            // primitives may be inside it).
+            let boxed = cand.kind.is_feature()
+                && matches!(
+                    self.colliders[self.feature_collider(*cand) as usize].shape,
+                    Shape::Box { .. }
+                );
+            if !boxed && self.skip_at(k, self.reach[k], x) {
+                continue;
+            }
             let dist = match cand.kind {
                 PairKind::Collider => {
                     let p = self.verts[b] as usize;
