@@ -197,34 +197,8 @@ impl Bvh {
     /// Calls `hit(i)` for every primitive `i` whose box (as of the last refit) overlaps
     /// `query`, in a fixed order. `stack` is scratch space.
     #[inline]
-    pub fn query(
-        &self,
-        query: &Aabb,
-        boxes: &[Aabb],
-        stack: &mut Vec<u32>,
-        mut hit: impl FnMut(u32),
-    ) {
-        if self.nodes.is_empty() {
-            return;
-        }
-        stack.clear();
-        stack.push(0);
-        while let Some(k) = stack.pop() {
-            let n = &self.nodes[k as usize];
-            if !n.aabb.overlaps(query) {
-                continue;
-            }
-            if n.count > 0 {
-                for &i in &self.order[n.first as usize..(n.first + n.count) as usize] {
-                    if boxes[i as usize].overlaps(query) {
-                        hit(i);
-                    }
-                }
-            } else {
-                stack.push(n.right);
-                stack.push(n.first);
-            }
-        }
+    pub fn query(&self, query: &Aabb, boxes: &[Aabb], stack: &mut Vec<u32>, hit: impl FnMut(u32)) {
+        self.walk(query, None, boxes, stack, hit);
     }
 
     /// [`query`](Self::query) when `wanted`, else nothing (a query every hit of which would
@@ -239,7 +213,7 @@ impl Bvh {
         hit: impl FnMut(u32),
     ) {
         if wanted {
-            self.query(query, boxes, stack, hit);
+            self.walk(query, None, boxes, stack, hit);
         }
     }
 
@@ -254,21 +228,36 @@ impl Bvh {
         above: u32,
         boxes: &[Aabb],
         stack: &mut Vec<u32>,
+        hit: impl FnMut(u32),
+    ) {
+        self.walk(query, Some(above), boxes, stack, hit);
+    }
+
+    /// The traversal of the queries: every primitive whose box overlaps `query` (and whose
+    /// index is past `above`, if given), depth first, left before right.
+    #[inline(always)]
+    fn walk(
+        &self,
+        query: &Aabb,
+        above: Option<u32>,
+        boxes: &[Aabb],
+        stack: &mut Vec<u32>,
         mut hit: impl FnMut(u32),
     ) {
         if self.nodes.is_empty() {
             return;
         }
+        let past = |i: u32| above.is_none_or(|a| i > a);
         stack.clear();
         stack.push(0);
         while let Some(k) = stack.pop() {
             let n = &self.nodes[k as usize];
-            if n.max_index <= above || !n.aabb.overlaps(query) {
+            if !past(n.max_index) || !n.aabb.overlaps(query) {
                 continue;
             }
             if n.count > 0 {
                 for &i in &self.order[n.first as usize..(n.first + n.count) as usize] {
-                    if i > above && boxes[i as usize].overlaps(query) {
+                    if past(i) && boxes[i as usize].overlaps(query) {
                         hit(i);
                     }
                 }
