@@ -96,7 +96,8 @@ struct Node {
     count: u32,
     /// Inner: index of the right child.
     right: u32,
-    /// The largest primitive index under the node (for [`Bvh::query_above`]).
+    /// The smallest and the largest primitive index under the node (for [`Window`]).
+    min_index: u32,
     max_index: u32,
 }
 
@@ -131,6 +132,7 @@ impl Bvh {
             first: lo as u32,
             count: (hi - lo) as u32,
             right: 0,
+            min_index: self.order[lo..hi].iter().copied().min().unwrap_or(0),
             max_index: self.order[lo..hi].iter().copied().max().unwrap_or(0),
         });
         if hi - lo <= LEAF_SIZE {
@@ -198,66 +200,36 @@ impl Bvh {
     /// `query`, in a fixed order. `stack` is scratch space.
     #[inline]
     pub fn query(&self, query: &Aabb, boxes: &[Aabb], stack: &mut Vec<u32>, hit: impl FnMut(u32)) {
-        self.walk(query, None, boxes, stack, hit);
+        self.query_in(query, Window::ALL, boxes, stack, hit);
     }
 
-    /// [`query`](Self::query) when `wanted`, else nothing (a query every hit of which would
-    /// be dropped).
+    /// As [`query`](Self::query), for the primitives `window` admits only: the same hits in
+    /// the same order as `query` filtered by the window, but a subtree whose primitives it
+    /// all refuses is not entered. A self query (edge against edge) that finds each pair
+    /// from its lower index skips about half the nodes whose boxes the query meets; an
+    /// object that does not collide with itself skips its own subtrees.
     #[inline]
-    pub fn query_if(
-        &self,
-        wanted: bool,
-        query: &Aabb,
-        boxes: &[Aabb],
-        stack: &mut Vec<u32>,
-        hit: impl FnMut(u32),
-    ) {
-        if wanted {
-            self.walk(query, None, boxes, stack, hit);
-        }
-    }
-
-    /// As [`query`](Self::query), for the primitives `i > above` only: the same hits in the
-    /// same order as `query` filtered by `i > above`, but a subtree whose primitives all come
-    /// before is not entered. For a self query (edge against edge) that finds each pair from
-    /// its lower index, this skips about half the tree's nodes whose boxes the query meets.
-    #[inline]
-    pub fn query_above(
+    pub fn query_in(
         &self,
         query: &Aabb,
-        above: u32,
-        boxes: &[Aabb],
-        stack: &mut Vec<u32>,
-        hit: impl FnMut(u32),
-    ) {
-        self.walk(query, Some(above), boxes, stack, hit);
-    }
-
-    /// The traversal of the queries: every primitive whose box overlaps `query` (and whose
-    /// index is past `above`, if given), depth first, left before right.
-    #[inline(always)]
-    fn walk(
-        &self,
-        query: &Aabb,
-        above: Option<u32>,
+        window: Window,
         boxes: &[Aabb],
         stack: &mut Vec<u32>,
         mut hit: impl FnMut(u32),
     ) {
-        if self.nodes.is_empty() {
+        if self.nodes.is_empty() || window.is_empty() {
             return;
         }
-        let past = |i: u32| above.is_none_or(|a| i > a);
         stack.clear();
         stack.push(0);
         while let Some(k) = stack.pop() {
             let n = &self.nodes[k as usize];
-            if !past(n.max_index) || !n.aabb.overlaps(query) {
+            if window.refuses_all(n.min_index, n.max_index) || !n.aabb.overlaps(query) {
                 continue;
             }
             if n.count > 0 {
                 for &i in &self.order[n.first as usize..(n.first + n.count) as usize] {
-                    if past(i) && boxes[i as usize].overlaps(query) {
+                    if window.admits(i) && boxes[i as usize].overlaps(query) {
                         hit(i);
                     }
                 }
@@ -266,6 +238,44 @@ impl Bvh {
                 stack.push(n.first);
             }
         }
+    }
+}
+
+/// Which primitive indices a [`Bvh::query_in`] wants: those past `above`, outside the
+/// range `skip` (half open), and none at all when `none`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Window {
+    /// Only indices greater than this (`None`: any).
+    pub above: Option<u32>,
+    /// Not the indices in `skip.0 .. skip.1` (an empty range skips nothing).
+    pub skip: (u32, u32),
+    /// No index at all (a query every hit of which would be dropped).
+    pub none: bool,
+}
+
+impl Window {
+    /// Every index.
+    pub const ALL: Self = Self {
+        above: None,
+        skip: (0, 0),
+        none: false,
+    };
+
+    #[inline]
+    fn is_empty(&self) -> bool {
+        self.none
+    }
+
+    /// Whether index `i` is wanted.
+    #[inline]
+    pub fn admits(&self, i: u32) -> bool {
+        self.above.is_none_or(|a| i > a) && !(self.skip.0 <= i && i < self.skip.1)
+    }
+
+    /// Whether every index in `lo ..= hi` is refused.
+    #[inline]
+    fn refuses_all(&self, lo: u32, hi: u32) -> bool {
+        self.above.is_some_and(|a| hi <= a) || (self.skip.0 <= lo && hi < self.skip.1)
     }
 }
 
@@ -442,33 +452,58 @@ mod tests {
     }
 
     #[test]
-    fn a_query_above_an_index_gives_the_hits_of_a_query_past_it_in_the_same_order() {
+    fn a_query_in_a_window_gives_the_hits_of_a_query_it_admits_in_the_same_order() {
         let mut seed = 11;
-        let boxes = random_boxes(300, &mut seed, 0.04);
+        // Boxes built in index order along x, as a mesh's primitives come object by object:
+        // whole subtrees then fall inside a skipped range or below `above`.
+        let mut boxes = random_boxes(300, &mut seed, 0.04);
+        boxes.sort_by(|a, b| a.min.x.total_cmp(&b.min.x));
         let mut bvh = Bvh::build(&boxes);
         let mut stack = Vec::new();
         for round in 0..3 {
-            let moved = random_boxes(300, &mut seed, 0.04 * (round + 1) as f64);
+            let moved: Vec<Aabb> = boxes
+                .iter()
+                .map(|b| {
+                    let d = 0.02 * (round as f64) * DVec3::new(1.0, -0.5, 0.3);
+                    Aabb {
+                        min: b.min + d,
+                        max: b.max + d,
+                    }
+                })
+                .collect();
             bvh.refit(&moved);
-            for (k, q) in random_boxes(60, &mut seed, 0.1).iter().enumerate() {
-                let above = (k * 5) as u32; // 0 … 295, past the end too
-                let mut all = Vec::new();
-                bvh.query(q, &moved, &mut stack, |i| all.push(i));
-                all.retain(|&i| i > above);
-                let mut got = Vec::new();
-                bvh.query_above(q, above, &moved, &mut stack, |i| got.push(i));
-                assert_eq!(got, all, "query {k} above {above}");
+            for (k, q) in random_boxes(60, &mut seed, 0.3).iter().enumerate() {
+                let k = k as u32;
+                let windows = [
+                    Window::ALL,
+                    Window {
+                        above: Some(k * 5), // 0 … 295
+                        ..Window::ALL
+                    },
+                    Window {
+                        skip: (k * 3, k * 3 + 90),
+                        ..Window::ALL
+                    },
+                    Window {
+                        above: Some(k * 2),
+                        skip: (100, 200),
+                        none: false,
+                    },
+                    Window {
+                        none: true,
+                        ..Window::ALL
+                    },
+                ];
+                for w in windows {
+                    let mut all = Vec::new();
+                    bvh.query(q, &moved, &mut stack, |i| all.push(i));
+                    all.retain(|&i| !w.none && w.admits(i));
+                    let mut got = Vec::new();
+                    bvh.query_in(q, w, &moved, &mut stack, |i| got.push(i));
+                    assert_eq!(got, all, "query {k}, {w:?}");
+                }
             }
         }
-        let mut none = Vec::new();
-        bvh.query_above(
-            &Aabb::of_points(&[DVec3::ZERO], 10.0),
-            299,
-            &boxes,
-            &mut stack,
-            |i| none.push(i),
-        );
-        assert!(none.is_empty());
     }
 
     #[test]

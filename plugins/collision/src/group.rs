@@ -6,7 +6,7 @@ use glam::DVec3;
 use nucleus_sdk::prelude::*;
 use nucleus_sdk::team::{span, SharedArray, TeamRef};
 
-use crate::bvh::{Aabb, Bvh, HashGrid};
+use crate::bvh::{Aabb, Bvh, HashGrid, Window};
 use crate::contact::{Contact, PairKind};
 use crate::distance;
 use crate::pairs::{self, Separation, Track};
@@ -97,6 +97,9 @@ pub struct CollisionGroup {
     /// ([`Self::objects_may_collide`]): the mesh queries of an object that meets none are not
     /// made, since every pair they would find is dropped.
     meets_objects: Vec<bool>,
+    /// Each target object's primitives (group-local object index): its vertices', edges' and
+    /// faces' index ranges, which are contiguous (an object's primitives are listed together).
+    object_ranges: Vec<[(u32, u32); 3]>,
     /// Name of each target object, for errors.
     names: Vec<String>,
     /// The most candidate pairs the group holds ([`candidate_budget`]); more is an error.
@@ -324,6 +327,22 @@ fn track(x0: &[DVec3], x: &[DVec3], i: u32) -> Track {
 /// outside (`start ≥ reach − push`, every resting contact) keeps `reach`. A NaN start
 /// keeps `reach` too.
 #[inline]
+/// The index range of the primitives `owners` lists as object `k`'s, which are contiguous
+/// (`(0, 0)` for none).
+fn object_range(owners: &[u32], k: u32) -> (u32, u32) {
+    let start = owners.partition_point(|&o| o < k);
+    let end = owners.partition_point(|&o| o <= k);
+    debug_assert!(
+        owners.windows(2).all(|w| w[0] <= w[1]),
+        "primitives out of object order"
+    );
+    if start == end {
+        (0, 0)
+    } else {
+        (start as u32, end as u32)
+    }
+}
+
 pub(crate) fn push_out_reach(reach: f64, start: f64, push: f64) -> f64 {
     reach.min(start + push)
 }
@@ -608,6 +627,7 @@ impl CollisionGroup {
             push_out_speed: params.push_out_speed,
             settings,
             meets_objects: Vec::new(),
+            object_ranges: Vec::new(),
             names: names.iter().map(|n| n.to_string()).collect(),
             candidate_budget: usize::MAX,
             over_budget: 0,
@@ -836,6 +856,9 @@ impl CollisionGroup {
             })
             .collect();
         g.edge_faces = edge_faces(&g.edges, &g.faces);
+        g.object_ranges = (0..targets.len() as u32)
+            .map(|k| [&g.vert_obj, &g.edge_obj, &g.face_obj].map(|owners| object_range(owners, k)))
+            .collect();
         g.impaled = Vec::with_capacity(g.colliders.len() * g.settings.len());
 
         // Broad-phase structures over the rest pose; refit from the first substep on.
@@ -1122,6 +1145,24 @@ impl CollisionGroup {
         } else {
             self.settings[a as usize].layers & self.settings[b as usize].layers != 0
                 && !self.is_excluded(a, b)
+        }
+    }
+
+    /// What a query of object `obj`'s primitive wants from the tree of `tree` (0 vertices,
+    /// 1 edges, 2 faces): nothing if the object meets no object, not its own primitives
+    /// if it does not collide with itself, and only indices past `above` if given. Every
+    /// primitive refused would give a pair [`Self::objects_may_collide`] drops.
+    #[inline]
+    fn window(&self, tree: usize, obj: u32, above: Option<u32>) -> Window {
+        let o = obj as usize;
+        Window {
+            above,
+            skip: if self.settings[o].self_collision {
+                (0, 0)
+            } else {
+                self.object_ranges[o][tree]
+            },
+            none: !self.meets_objects[o],
         }
     }
 
@@ -1606,23 +1647,26 @@ impl CollisionGroup {
             match kind {
                 0 => {
                     let i = k as usize;
-                    if !self.meets_objects[self.vert_obj[i] as usize] {
-                        continue;
-                    }
-                    self.face_bvh
-                        .query(&self.vert_boxes[i], &self.face_boxes, stack, |f| {
+                    let window = self.window(2, self.vert_obj[i], None);
+                    self.face_bvh.query_in(
+                        &self.vert_boxes[i],
+                        window,
+                        &self.face_boxes,
+                        stack,
+                        |f| {
                             if let Some(d) = self.vertex_face_reach(i, f, inv_mass) {
                                 let kind = PairKind::VertexFace;
                                 fresh.push((Candidate { kind, pair: [k, f] }, d));
                             }
-                        });
+                        },
+                    );
                 }
                 1 => {
                     let f = k;
-                    let meets = self.meets_objects[self.face_obj[f as usize] as usize];
-                    self.vert_bvh.query_if(
-                        meets,
+                    let window = self.window(0, self.face_obj[f as usize], None);
+                    self.vert_bvh.query_in(
                         &self.face_boxes[f as usize],
+                        window,
                         &self.vert_boxes,
                         stack,
                         |i| {
@@ -1651,10 +1695,10 @@ impl CollisionGroup {
                 }
                 _ => {
                     let i = k as usize;
-                    let meets = self.meets_objects[self.edge_obj[i] as usize];
-                    self.edge_bvh.query_if(
-                        meets,
+                    let window = self.window(1, self.edge_obj[i], None);
+                    self.edge_bvh.query_in(
                         &self.edge_boxes[i],
+                        window,
                         &self.edge_boxes,
                         stack,
                         |j| {
@@ -1892,12 +1936,10 @@ impl CollisionGroup {
         out: &mut Vec<(Candidate, f64)>,
     ) {
         for i in verts {
-            if !self.meets_objects[self.vert_obj[i] as usize] {
-                continue;
-            }
+            let window = self.window(2, self.vert_obj[i], None);
             let from = out.len();
             self.face_bvh
-                .query(&self.vert_boxes[i], &self.face_boxes, stack, |f| {
+                .query_in(&self.vert_boxes[i], window, &self.face_boxes, stack, |f| {
                     if let Some(d) = self.vertex_face_reach(i, f, inv_mass) {
                         let pair = [i as u32, f];
                         out.push((
@@ -1923,16 +1965,10 @@ impl CollisionGroup {
         out: &mut Vec<(Candidate, f64)>,
     ) {
         for i in edges {
-            if !self.meets_objects[self.edge_obj[i] as usize] {
-                continue;
-            }
+            let window = self.window(1, self.edge_obj[i], Some(i as u32));
             let from = out.len();
-            self.edge_bvh.query_above(
-                &self.edge_boxes[i],
-                i as u32,
-                &self.edge_boxes,
-                stack,
-                |j| {
+            self.edge_bvh
+                .query_in(&self.edge_boxes[i], window, &self.edge_boxes, stack, |j| {
                     if let Some(d) = self.edge_edge_reach(i, j, inv_mass) {
                         let pair = [i as u32, j];
                         out.push((
@@ -1943,8 +1979,7 @@ impl CollisionGroup {
                             d,
                         ));
                     }
-                },
-            );
+                });
             sort_by_second(out, from);
         }
     }
