@@ -207,9 +207,9 @@ pub struct CollisionGroup {
     /// The particles of each candidate (unused slots repeat one of them).
     cand_ids: Vec<[u32; 4]>,
     /// The separation of each candidate, taken the first time a pass tests it
-    /// ([`Separation::UNKNOWN`] before that, and always for the kinds without a prefilter:
-    /// colliders, features, particle pairs), and the most any of its particles had then moved
-    /// from `x_ref`.
+    /// ([`Separation::UNKNOWN`] before that, and always for the kinds without one:
+    /// particle pairs, and vertices against a box or a capsule; [`Self::separation_at`]), and
+    /// the most any of its particles had then moved from `x_ref`.
     separation: Vec<Separation>,
     separation_moved: Vec<f64>,
     /// Each collider or feature candidate's primitive at the substep's start, once taken

@@ -89,6 +89,12 @@
 //! next broad phase it skips the pair while that separation, less twice the most any of its
 //! particles has moved since, still proves it apart ([`pairs::Separation::certainly_apart`]) —
 //! the verdict the full test would give, so the contacts and positions are the same bits.
+//! A collider's feature against a face or an edge keeps the separation of the mesh test it
+//! runs on the feature's track, and a vertex against a plane or a sphere its signed distances
+//! at the ends of its track and the track's length ([`pairs::collider_separation`]); the final
+//! projections and the penetration statistic skip on them too. The separations' distances are
+//! taken by [`distance::segment_segment_distance_squared`] and
+//! [`distance::point_triangle_distance_squared`], the robust ones' to rounding.
 //!
 //! Measured back to back (2026-11-23, the 2-core VM, the first 40 frames, mean ms per frame,
 //! before = commit 7d55671, after = the skip, the split and the `0.3 r` margin):
