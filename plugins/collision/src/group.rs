@@ -3246,6 +3246,9 @@ impl CollisionGroup {
         }
         for (k, cand) in self.candidates.iter().enumerate() {
             let (a, b) = (cand.pair[0] as usize, cand.pair[1] as usize);
+            if cand.kind != PairKind::Collider && !cand.kind.is_feature() {
+                continue;
+            }
             // A pair certainly beyond its reach adds nothing (a box's features excepted: their
             // primitives may be inside it).
             let boxed = cand.kind.is_feature()
