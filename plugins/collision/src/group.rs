@@ -100,6 +100,11 @@ pub struct CollisionGroup {
     /// Each target object's primitives (group-local object index): its vertices', edges' and
     /// faces' index ranges, which are contiguous (an object's primitives are listed together).
     object_ranges: Vec<[(u32, u32); 3]>,
+    /// Every particle of a vertex, an edge or a face (sorted), and the tight swept box of each
+    /// (indexed by particle, radius 0): a primitive's tight box is the union of its
+    /// particles' ([`Self::fill_particle_boxes`]).
+    box_particles: Vec<u32>,
+    particle_boxes: Vec<Aabb>,
     /// Name of each target object, for errors.
     names: Vec<String>,
     /// The most candidate pairs the group holds ([`candidate_budget`]); more is an error.
@@ -628,6 +633,8 @@ impl CollisionGroup {
             settings,
             meets_objects: Vec::new(),
             object_ranges: Vec::new(),
+            box_particles: Vec::new(),
+            particle_boxes: vec![Aabb::EMPTY; n],
             names: names.iter().map(|n| n.to_string()).collect(),
             candidate_budget: usize::MAX,
             over_budget: 0,
@@ -856,6 +863,12 @@ impl CollisionGroup {
             })
             .collect();
         g.edge_faces = edge_faces(&g.edges, &g.faces);
+        g.box_particles = (g.verts.iter().copied())
+            .chain(g.edges.iter().flatten().copied())
+            .chain(g.faces.iter().flatten().copied())
+            .collect();
+        g.box_particles.sort_unstable();
+        g.box_particles.dedup();
         g.object_ranges = (0..targets.len() as u32)
             .map(|k| [&g.vert_obj, &g.edge_obj, &g.face_obj].map(|owners| object_range(owners, k)))
             .collect();
@@ -1256,10 +1269,11 @@ impl CollisionGroup {
     /// sort is needed (checked in debug builds).
     fn broad_phase(&mut self, x0: &[DVec3], x: &[DVec3], inv_mass: &[f64], team: TeamRef<'_>) {
         self.stats.broad_phases += 1;
+        self.fill_particle_boxes(x0, x);
         for kind in 0..3 {
             let mut boxes = std::mem::take(self.boxes_and_flags(kind).0);
             for (i, b) in boxes.iter_mut().enumerate() {
-                let (tight, radius) = self.tight_box(kind, i, x0, x);
+                let (tight, radius) = self.tight_box(kind, i);
                 *b = tight.grow(margin(radius));
             }
             *self.boxes_and_flags(kind).0 = boxes;
@@ -1531,11 +1545,12 @@ impl CollisionGroup {
         team: TeamRef<'_>,
     ) -> bool {
         let mut count = 0;
+        self.fill_particle_boxes(x0, x);
         for kind in 0..3 {
             let (b, f) = self.boxes_and_flags(kind);
             let (mut boxes, mut flags) = (std::mem::take(b), std::mem::take(f));
             for (i, (b, out)) in boxes.iter_mut().zip(flags.iter_mut()).enumerate() {
-                let (tight, radius) = self.tight_box(kind, i, x0, x);
+                let (tight, radius) = self.tight_box(kind, i);
                 *out = !b.contains(&tight);
                 if *out {
                     *b = tight.grow(margin(radius));
@@ -1754,13 +1769,36 @@ impl CollisionGroup {
         }
     }
 
-    /// The tight swept box of vertex, edge or face `i` (`kind` 0, 1, 2) and its radius.
-    fn tight_box(&self, kind: usize, i: usize, x0: &[DVec3], x: &[DVec3]) -> (Aabb, f64) {
-        match kind {
-            0 => (self.vert_box(i, x0, x), self.radius(self.vert_obj[i])),
-            1 => (self.edge_box(i, x0, x), self.radius(self.edge_obj[i])),
-            _ => (self.face_box(i, x0, x), self.radius(self.face_obj[i])),
+    /// The tight swept box of every particle of a primitive over the substep so far,
+    /// `[x0, x − shift]` ([`Self::tight_box`]).
+    fn fill_particle_boxes(&mut self, x0: &[DVec3], x: &[DVec3]) {
+        let s = self.shift;
+        for &p in &self.box_particles {
+            let p = p as usize;
+            self.particle_boxes[p] = Aabb::of_points(&[x0[p], x[p] - s], 0.0);
         }
+    }
+
+    /// The tight swept box of vertex, edge or face `i` (`kind` 0, 1, 2) and its radius, from
+    /// the particle boxes just filled: the union of its particles' grown by its radius, which
+    /// is [`Self::vert_box`], [`Self::edge_box`] or [`Self::face_box`] (the same minima and
+    /// maxima of the same coordinates, then the same growth).
+    #[inline]
+    fn tight_box(&self, kind: usize, i: usize) -> (Aabb, f64) {
+        let pb = |p: u32| self.particle_boxes[p as usize];
+        let (b, obj) = match kind {
+            0 => (pb(self.verts[i]), self.vert_obj[i]),
+            1 => {
+                let [a, b] = self.edges[i];
+                (pb(a).union(pb(b)), self.edge_obj[i])
+            }
+            _ => {
+                let [a, b, c] = self.faces[i];
+                (pb(a).union(pb(b)).union(pb(c)), self.face_obj[i])
+            }
+        };
+        let radius = self.radius(obj);
+        (b.grow(radius), radius)
     }
 
     /// Whether candidate `c` has a primitive marked escaped by [`Self::refresh_escaped`].
@@ -3689,6 +3727,43 @@ mod tests {
                 kinds.contains(&kind),
                 "no {kind:?} pair: the test would not test it"
             );
+        }
+    }
+
+    /// The tight boxes a broad phase or a refresh takes from the particle boxes are, to the
+    /// bit, the boxes of the primitives' own coordinates ([`CollisionGroup::vert_box`],
+    /// [`CollisionGroup::edge_box`], [`CollisionGroup::face_box`]), with a shift and crumpled
+    /// positions.
+    #[test]
+    fn tight_boxes_from_particle_boxes_are_the_primitives_own() {
+        let (rest, edges, tris) = cloth(9);
+        let [mut g, _] = groups(&rest, &edges, &tris);
+        let x0: Vec<DVec3> = rest.iter().map(|&p| DVec3::from(p)).collect();
+        let mut rng = Rng(17);
+        for round in 0..20 {
+            let x: Vec<DVec3> = x0.iter().map(|&p| p + rng.vec3(0.05)).collect();
+            g.shift = if round % 2 == 0 {
+                DVec3::ZERO
+            } else {
+                rng.vec3(0.02)
+            };
+            g.fill_particle_boxes(&x0, &x);
+            let bits = |b: Aabb| {
+                (
+                    b.min.to_array().map(f64::to_bits),
+                    b.max.to_array().map(f64::to_bits),
+                )
+            };
+            for i in 0..g.verts.len() {
+                assert_eq!(bits(g.tight_box(0, i).0), bits(g.vert_box(i, &x0, &x)));
+            }
+            for i in 0..g.edges.len() {
+                assert_eq!(bits(g.tight_box(1, i).0), bits(g.edge_box(i, &x0, &x)));
+            }
+            for i in 0..g.faces.len() {
+                assert_eq!(bits(g.tight_box(2, i).0), bits(g.face_box(i, &x0, &x)));
+            }
+            assert!(!g.faces.is_empty() && !g.edges.is_empty());
         }
     }
 
