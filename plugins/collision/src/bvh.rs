@@ -217,7 +217,7 @@ impl Bvh {
         stack: &mut Vec<u32>,
         mut hit: impl FnMut(u32),
     ) {
-        if self.nodes.is_empty() || window.is_empty() {
+        if self.nodes.is_empty() || window.none {
             return;
         }
         stack.clear();
@@ -260,11 +260,6 @@ impl Window {
         skip: (0, 0),
         none: false,
     };
-
-    #[inline]
-    fn is_empty(&self) -> bool {
-        self.none
-    }
 
     /// Whether index `i` is wanted.
     #[inline]

@@ -321,17 +321,6 @@ fn track(x0: &[DVec3], x: &[DVec3], i: u32) -> Track {
     }
 }
 
-/// The distance a primitive is kept from an analytic collider (or its feature) at the end of
-/// a substep: its contact distance `reach`, unless it started the substep deeper, at
-/// `start` (m; the signed distance from the collider's surface for a vertex, the distance
-/// from the feature otherwise): then `start + push` with `push = push_out_speed · h`, the
-/// most it may leave by in one substep. Pushing a cloth placed through a sphere out in one
-/// substep moves its inner vertices by up to the sphere's radius while their neighbours
-/// stay, which tears the cloth and sends every jump through the rest of it; at a bounded
-/// speed the stretch constraints carry the neighbours along. A primitive that starts
-/// outside (`start ≥ reach − push`, every resting contact) keeps `reach`. A NaN start
-/// keeps `reach` too.
-#[inline]
 /// The index range of the primitives `owners` lists as object `k`'s, which are contiguous
 /// (`(0, 0)` for none).
 fn object_range(owners: &[u32], k: u32) -> (u32, u32) {
@@ -348,6 +337,17 @@ fn object_range(owners: &[u32], k: u32) -> (u32, u32) {
     }
 }
 
+/// The distance a primitive is kept from an analytic collider (or its feature) at the end of
+/// a substep: its contact distance `reach`, unless it started the substep deeper, at
+/// `start` (m; the signed distance from the collider's surface for a vertex, the distance
+/// from the feature otherwise): then `start + push` with `push = push_out_speed · h`, the
+/// most it may leave by in one substep. Pushing a cloth placed through a sphere out in one
+/// substep moves its inner vertices by up to the sphere's radius while their neighbours
+/// stay, which tears the cloth and sends every jump through the rest of it; at a bounded
+/// speed the stretch constraints carry the neighbours along. A primitive that starts
+/// outside (`start ≥ reach − push`, every resting contact) keeps `reach`. A NaN start
+/// keeps `reach` too.
+#[inline]
 pub(crate) fn push_out_reach(reach: f64, start: f64, push: f64) -> f64 {
     reach.min(start + push)
 }
@@ -1268,8 +1268,19 @@ impl CollisionGroup {
     /// first primitive ascending, and each query's hits sorted by the second — so no global
     /// sort is needed (checked in debug builds).
     fn broad_phase(&mut self, x0: &[DVec3], x: &[DVec3], inv_mass: &[f64], team: TeamRef<'_>) {
-        self.stats.broad_phases += 1;
         self.fill_particle_boxes(x0, x);
+        self.broad_phase_from_particle_boxes(x, inv_mass, team);
+    }
+
+    /// [`Self::broad_phase`] with the particle boxes already filled at `[x0, x]`
+    /// ([`Self::fill_particle_boxes`]), as a refresh that falls back to it has them.
+    fn broad_phase_from_particle_boxes(
+        &mut self,
+        x: &[DVec3],
+        inv_mass: &[f64],
+        team: TeamRef<'_>,
+    ) {
+        self.stats.broad_phases += 1;
         for kind in 0..3 {
             let mut boxes = std::mem::take(self.boxes_and_flags(kind).0);
             for (i, b) in boxes.iter_mut().enumerate() {
@@ -1565,7 +1576,7 @@ impl CollisionGroup {
             return false;
         }
         if !self.isolated.is_empty() || REFRESH_MAX_SHARE * count > total {
-            self.broad_phase(x0, x, inv_mass, team);
+            self.broad_phase_from_particle_boxes(x, inv_mass, team);
             return true;
         }
         self.stats.refreshes += 1;
@@ -2125,18 +2136,21 @@ impl CollisionGroup {
         !s.d0.is_nan() && s.certainly_apart(self.separation_moved[k] + self.candidate_moved(k), d)
     }
 
-    /// [`Self::skip`] with the motion since measured at `x` rather than kept in `moved`.
+    /// Whether vertex–collider or feature candidate `k` is certainly farther than its reach
+    /// from the collider at the substep's end pose, now: its certificate ([`Self::skip`], with
+    /// `moved` current), which bounds the signed distance for any collider but a box's
+    /// features — a primitive inside a box is far from its corners and edges, so those are
+    /// never skipped. What the final projections and the penetration statistic would find
+    /// nothing to do for.
     #[inline]
-    fn skip_at(&self, k: usize, d: f64, x: &[DVec3]) -> bool {
-        let s = &self.separation[k];
-        if s.d0.is_nan() {
-            return false;
-        }
-        let now = self.cand_ids[k].iter().fold(0.0f64, |m, &i| {
-            let i = i as usize;
-            m.max((x[i] - self.x_ref[i]).length())
-        });
-        s.certainly_apart(self.separation_moved[k] + now, d)
+    fn certainly_beyond_reach(&self, k: usize) -> bool {
+        let cand = self.candidates[k];
+        let boxed = cand.kind.is_feature()
+            && matches!(
+                self.colliders[self.feature_collider(cand) as usize].shape,
+                Shape::Box { .. }
+            );
+        !boxed && self.skip(k, self.reach[k])
     }
 
     /// The tracks of candidate `k`'s particles over `[x0, x]`, written out (an array `map`
@@ -2232,11 +2246,17 @@ impl CollisionGroup {
     fn update_moved_of(&mut self, ids: &[u32; 4], x: &[DVec3]) {
         for &i in ids {
             let i = i as usize;
-            self.moved[i] = (x[i] - self.x_ref[i]).length();
+            self.note_moved(i, x);
             if self.ahead_exact {
                 self.touched[i] = true;
             }
         }
+    }
+
+    /// `moved` for particle `i`, just moved outside a pass (the final projections).
+    #[inline]
+    fn note_moved(&mut self, i: usize, x: &[DVec3]) {
+        self.moved[i] = (x[i] - self.x_ref[i]).length();
     }
 
     /// The contact of candidate `k` if the pair comes within `thickness_scale × reach` (its
@@ -2266,7 +2286,7 @@ impl CollisionGroup {
         let [a, b] = cand.pair;
         match cand.kind {
             PairKind::VertexFace | PairKind::EdgeEdge | PairKind::VertexEdge => {
-                let ids = self.candidate_ids(cand);
+                let ids = self.cand_ids[k];
                 let tr = ids.map(track);
                 let s = known.or_else(|| pairs::separation(cand.kind, &tr))?;
                 pairs::separated_contact(cand.kind, s, cand.pair, ids, &tr, d)
@@ -2309,7 +2329,7 @@ impl CollisionGroup {
             // query runs on its world track over the substep like a mesh collider's vertex,
             // then its slots are folded into the contact's offset.
             PairKind::FeatureFace | PairKind::FeaturePointEdge | PairKind::FeatureEdgeEdge => {
-                let ids = self.candidate_ids(cand);
+                let ids = self.cand_ids[k];
                 let (kind, tr) = self.feature_tracks(cand, &ids, x0, x);
                 let s = known.or_else(|| pairs::separation(kind, &tr))?;
                 let mut c = pairs::separated_contact(kind, s, cand.pair, ids, &tr, d)?;
@@ -2521,13 +2541,11 @@ impl CollisionGroup {
             if start.leaves == Leaves::OffAxis {
                 if let Some(exit) = self.axis_exit(c, self.axis_parameter(c, x0[p])) {
                     self.slide_off_axis(exit, p, r, x0, x, pushes);
-                    self.moved[p] = (x[p] - self.x_ref[p]).length();
+                    self.note_moved(p, x);
                 }
                 continue;
             }
-            // Certainly farther than `r` from a plane or a sphere: the test below would leave
-            // it (the pass's certificate, kept with the motion since: [`Self::skip`]).
-            if self.skip(k, r) {
+            if self.certainly_beyond_reach(k) {
                 continue;
             }
             let col = &self.colliders[c];
@@ -2544,7 +2562,7 @@ impl CollisionGroup {
                     pushes[p] += to - x[p];
                 }
                 x[p] = to;
-                self.moved[p] = (x[p] - self.x_ref[p]).length();
+                self.note_moved(p, x);
             }
         }
     }
@@ -2600,11 +2618,7 @@ impl CollisionGroup {
                 self.update_moved_of(&ids, x);
                 continue;
             }
-            // Certainly farther than its reach from the feature (the pass's certificate, with
-            // the motion since: [`Self::skip`]), which for any collider but a box is the
-            // signed distance below; a box's side is also inside, so a box is always tested.
-            if !matches!(self.colliders[c].shape, Shape::Box { .. }) && self.skip(k, self.reach[k])
-            {
+            if self.certainly_beyond_reach(k) {
                 continue;
             }
             let side = self.feature_side(cand, x, self.pose1[c]);
@@ -2635,7 +2649,7 @@ impl CollisionGroup {
                     if !pushes.is_empty() {
                         pushes[i] += inv_mass[i] * w[j] * step;
                     }
-                    self.moved[i] = (x[i] - self.x_ref[i]).length();
+                    self.note_moved(i, x);
                 }
             }
         }
@@ -3273,8 +3287,10 @@ impl CollisionGroup {
     /// Deepest thickness violation (m) at positions `x`, with the colliders at `poses`: over
     /// the contacts between particles, and over every candidate pair with a collider (its
     /// vertices by the exact signed distance, its features by their distance to the faces and
-    /// edges near them).
-    fn penetration(&self, x: &[DVec3], poses: &[Pose]) -> f64 {
+    /// edges near them). With `at_substep_end` (`x` the substep's end positions, `moved`
+    /// current and `poses` its end poses) the pairs certainly beyond their reach, which add
+    /// nothing, are skipped ([`Self::certainly_beyond_reach`]).
+    fn penetration(&self, x: &[DVec3], poses: &[Pose], at_substep_end: bool) -> f64 {
         let mut worst: f64 = 0.0;
         for c in &self.contacts {
             if c.kind != PairKind::Collider && !c.kind.is_feature() {
@@ -3287,14 +3303,7 @@ impl CollisionGroup {
             if cand.kind != PairKind::Collider && !cand.kind.is_feature() {
                 continue;
             }
-            // A pair certainly beyond its reach adds nothing (a box's features excepted: their
-            // primitives may be inside it).
-            let boxed = cand.kind.is_feature()
-                && matches!(
-                    self.colliders[self.feature_collider(*cand) as usize].shape,
-                    Shape::Box { .. }
-                );
-            if !boxed && self.skip_at(k, self.reach[k], x) {
+            if at_substep_end && self.certainly_beyond_reach(k) {
                 continue;
             }
             let dist = match cand.kind {
@@ -3472,7 +3481,8 @@ impl ConstraintGroup for CollisionGroup {
         let threshold = 2.0 * ctx.gravity().length() * h;
         let p = ctx.particles();
         self.check_state(p.x.len().min(p.x0.len()).min(p.inv_mass.len()))?;
-        let pen = self.penetration(p.x, &self.pose1);
+        self.update_moved(p.x);
+        let pen = self.penetration(p.x, &self.pose1, true);
         self.stats.max_penetration = self.stats.max_penetration.max(pen);
         self.drop_push_out_velocity(p.v);
         if self.restitution <= 0.0 || self.contacts.is_empty() || h <= 0.0 {
@@ -3509,7 +3519,7 @@ impl ConstraintGroup for CollisionGroup {
             .iter()
             .map(|c| c.motion.pose(ctx.time))
             .collect();
-        let max = self.penetration(x, &poses);
+        let max = self.penetration(x, &poses, false);
         Residual {
             count: self.contacts.len() as u64,
             max,
