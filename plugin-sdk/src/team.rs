@@ -23,8 +23,10 @@
 //!   ask took the lowest part, a spinning helper often took part 0 while the caller was still
 //!   waking the others, and the data crossed between the cores' caches at every job: on the
 //!   128 × 128 drape (`tether`, 640 substeps, two threads, AMD EPYC VM) the prediction took
-//!   26 % of the samples (8 % on one thread) and a frame 179–232 ms; with own parts first,
-//!   9 % and 141–159 ms (3 alternating runs of 20 frames, the same bits).
+//!   26 % of the samples (8 % on one thread); with own parts first, 9 %. Whole 120-frame runs
+//!   alternating with the build before (3 each, the same bits): 146–172 against 166–184 ms a
+//!   frame; next to a busy loop 365–451 against 433–436 ms (the caller still takes a part
+//!   that a helper kept off its core has not claimed).
 //! * **One team per process, not per plugin.** Spinning helpers of two teams take both cores
 //!   while only one team has work: measured with a team per `stretch` group, a scene with two
 //!   groups ran 1.5× slower on two threads (61.7 against 41.5 ms per frame, 128 × 128 drape).
