@@ -18,7 +18,7 @@
 //!   next to a compilation), 823–825 ms with claimed parts (1.4–1.5 times: three busy threads
 //!   still share two cores); the same bits either way.
 //! * **Each thread asks for its own part first** (the caller part 0, helper `n` part `n`;
-//!   [`claim`]), then for any part left. Consecutive jobs split the same arrays the same way,
+//!   `claim`), then for any part left. Consecutive jobs split the same arrays the same way,
 //!   so a thread finds its part's particles in its own core's cache. When the first thread to
 //!   ask took the lowest part, a spinning helper often took part 0 while the caller was still
 //!   waking the others, and the data crossed between the cores' caches at every job: on the
