@@ -433,14 +433,16 @@ fn run(args: RunArgs) -> Result<(), Failure> {
     }
     bar.finish_and_clear();
     let residuals = sim.residuals().map_err(Failure::run)?;
+    // The team runs at most `MAX_PARTS` parts, whatever was asked.
+    let threads = sim.threads.clamp(1, nucleus_sdk::team::MAX_PARTS);
     let mut summary = format!(
         "{} frames, {} particles, {} groups; step {:.3} ms/frame on {} thread{}; total {:.2} s",
         frames,
         sim.particles.len(),
         sim.groups.len(),
         1e3 * step_time / frames.max(1) as f64,
-        sim.threads,
-        if sim.threads == 1 { "" } else { "s" },
+        threads,
+        if threads == 1 { "" } else { "s" },
         started.elapsed().as_secs_f64()
     );
     for (g, r) in sim.groups.iter().zip(&residuals) {

@@ -107,16 +107,8 @@ pub const MAX_PARTS: usize = 32;
 
 /// Claims a part of job `job` (a number, as [`number`] reads it) of `parts` parts: part `own`
 /// if it is still unclaimed, else the lowest unclaimed one; `None` when all are claimed or
-/// another job is current.
-///
-/// Each thread of the team asks for its own part first (the caller part 0, helper `n` part
-/// `n`), so consecutive jobs over the same ranges (the prediction, a group's colours, the
-/// velocity update) find their particles in the same core's cache. When parts went to
-/// whichever thread asked first, a spinning helper often took part 0 while the caller was
-/// still waking the others, the data of every job crossed between the cores' caches, and the
-/// prediction alone took a quarter of the 128 × 128 drape's samples on two threads against
-/// 8 % on one. A thread that has run its own part still claims what is left, so nobody waits
-/// for a thread that is not running.
+/// another job is current. The caller asks with `own = 0`, helper `n` with `n`: each thread
+/// runs its own part when it can (the module docs say why) and then what is left.
 fn claim(state: &AtomicU64, job: u64, parts: usize, own: usize) -> Option<usize> {
     debug_assert!((1..=MAX_PARTS).contains(&parts) && own < parts);
     let all = u64::MAX >> (64 - parts);
@@ -342,6 +334,9 @@ pub fn shared(parts: usize) -> Option<std::sync::MutexGuard<'static, Option<Team
         Err(std::sync::TryLockError::Poisoned(p)) => p.into_inner(),
         Err(std::sync::TryLockError::WouldBlock) => return None,
     };
+    // A team never has more than `MAX_PARTS` parts: compare with what it would have, or a
+    // larger request would build a new team at every call.
+    let parts = parts.clamp(1, MAX_PARTS);
     if guard.as_ref().map_or(1, Team::parts) != parts {
         *guard = (parts > 1).then(|| Team::new(parts - 1));
     }
@@ -349,13 +344,14 @@ pub fn shared(parts: usize) -> Option<std::sync::MutexGuard<'static, Option<Team
 }
 
 /// The thread count the host uses: `RAYON_NUM_THREADS` when it is a positive integer, else the
-/// machine's available parallelism.
+/// machine's available parallelism; at most [`MAX_PARTS`].
 pub fn configured_threads() -> usize {
     std::env::var("RAYON_NUM_THREADS")
         .ok()
         .and_then(|s| s.trim().parse::<usize>().ok())
         .filter(|&n| n > 0)
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+        .min(MAX_PARTS)
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -578,6 +574,15 @@ mod tests {
         assert_eq!(Team::without_threads(1).parts(), 2);
         assert_eq!(Team::without_threads(MAX_PARTS - 1).parts(), MAX_PARTS);
         assert_eq!(Team::without_threads(100).parts(), MAX_PARTS);
+        // The process's team asked for more parts than it may have is built once, not at
+        // every request (its threads would be spawned again each substep).
+        let first = shared(100).map(|g| g.as_ref().map(|t| Arc::as_ptr(&t.shared)));
+        let again = shared(100).map(|g| g.as_ref().map(|t| Arc::as_ptr(&t.shared)));
+        if let (Some(Some(a)), Some(Some(b))) = (first, again) {
+            assert_eq!(a, b, "the capped team was rebuilt");
+        }
+        assert!(shared(100).is_none_or(|g| g.as_ref().is_some_and(|t| t.parts() == MAX_PARTS)));
+        assert!(configured_threads() <= MAX_PARTS);
     }
 
     #[test]
