@@ -144,6 +144,17 @@
 //! In scenes, 2 threads, A/B in one session: the 128 × 128 drape at 40 × 1 steps in 20.6 ms a
 //! frame against 26.5; with `tether` at 640 × 1 (both of the benchmark issue's strain bounds)
 //! 327 against 382 ms; `scenes/sail.toml` (soft in compression) 3.0 against 3.8 ms.
+//!
+//! **Tethers four at a time** (since 2026-11-27). A `tether` group keeps its batch in rounds
+//! (each particle's first tether, then each one's second, …), so a round moves distinct
+//! particles and four of its tethers share AVX2's lanes, each particle's tethers still in its
+//! own order: the same bits as one at a time particle after particle (unit tests, and the
+//! drape's frames). Most tethers of a hanging cloth are slack, and four are dismissed by one
+//! comparison. One pass over the 128 × 128 drape's 32,768 tethers, one thread
+//! (`cargo bench -p nucleus-stretch -- project_tether`, the build before as criterion's
+//! baseline, AMD EPYC VM): 48.8 µs against 97.5 µs. In the drape with `tether` at 640 × 1 on
+//! one thread the tether pass fell from 15.5 % to 9 % of the CPU samples (`perf`, 6 frames: 7,473
+//! samples against 8,660); whole frames on 2 threads moved within the machine's noise.
 
 //! ## Blocks: one edge at a time, or a particle's star at once
 //!

@@ -19,6 +19,11 @@
 //!
 //! Pins move with the scene (the tether reads the pin's current position), and a particle
 //! that cannot reach any pin along the mesh gets no tether.
+//!
+//! A pass runs the batch in rounds (every particle's first tether, then every particle's
+//! second, …), four tethers of a round at a time in AVX2's lanes, with the bits of one tether
+//! at a time particle after particle: tethers of different particles never touch the same
+//! particle, and a pin is only read (the crate docs' "Cost").
 
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
@@ -155,12 +160,163 @@ pub fn project_tether(
     Some((n * (w * dl), dl))
 }
 
-/// The `tether` group: SoA batch of (particle, pin, length), ordered by particle.
+/// Projects the tethers `particle[k]` → `pin[k]` of one round (distinct particles), each as
+/// [`project_tether`] does, four at a time in AVX2's lanes where the processor has them, with
+/// the same bits (every operation of the scalar code, in its order, no fused multiply-add).
+/// Most tethers of a hanging cloth are slack: four of them are dismissed by one comparison.
+///
+/// # Safety
+/// `x` holds every particle and pin index, valid for the call; no two tethers move the same
+/// particle; no other thread touches these particles meanwhile, nor writes the pins.
+#[allow(clippy::too_many_arguments)]
+unsafe fn project_tethers(
+    x: SharedArray<DVec3>,
+    w: &[f64],
+    particle: &[u32],
+    pin: &[u32],
+    length: &[f64],
+    lambda: &mut [f64],
+    compliance: f64,
+    h: f64,
+) {
+    let mut done = 0;
+    #[cfg(target_arch = "x86_64")]
+    if nucleus_sdk::lanes::avx2_available() {
+        // SAFETY: AVX2 is present; the rest is the caller's guarantee.
+        done = unsafe { avx2::project_fours(x, w, particle, pin, length, lambda, compliance, h) };
+    }
+    for k in done..particle.len() {
+        let (i, pin) = (particle[k] as usize, pin[k] as usize);
+        // SAFETY: the caller's guarantee.
+        unsafe {
+            let xi = *x.at(i);
+            let xp = *x.at(pin);
+            if let Some((dx, dl)) =
+                project_tether(xi, w[i], xp, length[k], compliance, lambda[k], h)
+            {
+                *x.at(i) = xi + dx;
+                lambda[k] += dl;
+            }
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use std::arch::x86_64::*;
+
+    use nucleus_sdk::lanes::avx2::{dot, load, moved, neg, scale, store, sub, Lanes3};
+
+    use super::*;
+
+    /// [`project_tethers`]'s groups of four; returns how many tethers it projected (a multiple
+    /// of four: the rest are the caller's).
+    ///
+    /// # Safety
+    /// As [`project_tethers`], and AVX2 is present.
+    #[target_feature(enable = "avx2")]
+    #[allow(clippy::too_many_arguments)]
+    pub(super) unsafe fn project_fours(
+        x: SharedArray<DVec3>,
+        w: &[f64],
+        particle: &[u32],
+        pin: &[u32],
+        length: &[f64],
+        lambda: &mut [f64],
+        compliance: f64,
+        h: f64,
+    ) -> usize {
+        let n = particle.len() / 4 * 4;
+        let p = x.at(0);
+        // `delta_lambda`'s `α̃ = α / h²`, and its guard on the denominator.
+        let alpha_tilde = compliance / (h * h);
+        let at = _mm256_set1_pd(alpha_tilde);
+        let (zero, tiny, infinity) = (
+            _mm256_setzero_pd(),
+            _mm256_set1_pd(1e-12),
+            _mm256_set1_pd(f64::INFINITY),
+        );
+        let slack_by_margin = _mm256_set1_pd(SLACK_BY_MARGIN);
+        let min_positive = _mm256_set1_pd(f64::MIN_POSITIVE);
+        let abs_mask = _mm256_castsi256_pd(_mm256_set1_epi64x(i64::MAX));
+        for k in (0..n).step_by(4) {
+            let ki = [0, 1, 2, 3].map(|l| particle[k + l] as usize);
+            let kp = [0, 1, 2, 3].map(|l| pin[k + l] as usize);
+            // SAFETY: the caller's guarantee (indices in bounds, particles owned, pins read).
+            let (xi, xp) = unsafe { (load(p, ki), load(p, kp)) };
+            let d = sub(&xi, &xp);
+            let d2 = dot(&d, &d);
+            // SAFETY: `k + 3 < n <= length.len()`.
+            let len = unsafe { _mm256_loadu_pd(length.as_ptr().add(k)) };
+            // Not slack: `!(|d|² < len² (1 − 1e-9))` (NaN goes on, as in the scalar code).
+            let taut = _mm256_cmp_pd::<_CMP_NLT_UQ>(
+                d2,
+                _mm256_mul_pd(_mm256_mul_pd(len, len), slack_by_margin),
+            );
+            if _mm256_movemask_pd(taut) == 0 {
+                continue;
+            }
+            let dist = _mm256_sqrt_pd(d2);
+            let c = _mm256_sub_pd(dist, len);
+            let wi = _mm256_setr_pd(w[ki[0]], w[ki[1]], w[ki[2]], w[ki[3]]);
+            // `!(c <= 0 || w <= 0 || dist is NaN || dist <= 1e-12)`.
+            let moves = _mm256_and_pd(
+                _mm256_and_pd(taut, _mm256_cmp_pd::<_CMP_NLE_UQ>(c, zero)),
+                _mm256_and_pd(
+                    _mm256_cmp_pd::<_CMP_NLE_UQ>(wi, zero),
+                    _mm256_and_pd(
+                        _mm256_cmp_pd::<_CMP_ORD_Q>(dist, dist),
+                        _mm256_cmp_pd::<_CMP_NLE_UQ>(dist, tiny),
+                    ),
+                ),
+            );
+            if _mm256_movemask_pd(moves) == 0 {
+                continue;
+            }
+            // SAFETY: `k + 3 < n <= lambda.len()`.
+            let l = unsafe { _mm256_loadu_pd(lambda.as_ptr().add(k)) };
+            // `delta_lambda(c, w, α, λ, h)`: 0 unless `MIN_POSITIVE < w + α̃ < ∞`.
+            let denom = _mm256_add_pd(wi, at);
+            let usable = _mm256_and_pd(
+                _mm256_cmp_pd::<_CMP_NLE_UQ>(denom, min_positive),
+                _mm256_cmp_pd::<_CMP_LT_OQ>(_mm256_and_pd(denom, abs_mask), infinity),
+            );
+            let dl = _mm256_blendv_pd(
+                zero,
+                _mm256_div_pd(_mm256_sub_pd(neg(c), _mm256_mul_pd(at, l)), denom),
+                usable,
+            );
+            // `n = d / |d|`, moved by `n (w Δλ)`.
+            let unit = Lanes3 {
+                x: _mm256_div_pd(d.x, dist),
+                y: _mm256_div_pd(d.y, dist),
+                z: _mm256_div_pd(d.z, dist),
+            };
+            let dx = scale(&unit, _mm256_mul_pd(wi, dl));
+            // SAFETY: as the load above; lanes that do not move write their own bits back.
+            unsafe {
+                store(p, ki, &moved(&xi, &dx, moves));
+                _mm256_storeu_pd(
+                    lambda.as_mut_ptr().add(k),
+                    _mm256_blendv_pd(l, _mm256_add_pd(l, dl), moves),
+                );
+            }
+        }
+        n
+    }
+}
+
+/// The `tether` group: SoA batch of (particle, pin, length) in rounds: round `r` holds the
+/// `r`-th tether of every particle that has more than `r`, ordered by particle. A round's
+/// tethers move distinct particles, four of which a pass projects at once (`project_tethers`),
+/// and each particle's tethers still run in its own order, round after round.
 pub struct TetherGroup {
     particle: Vec<u32>,
     pin: Vec<u32>,
     length: Vec<f64>,
     lambda: Vec<f64>,
+    /// Where each round starts in the batch, and the batch's end.
+    rounds: Vec<usize>,
     compliance: f64,
     /// The largest particle index of the batch (`None` when it is empty).
     max_index: Option<u32>,
@@ -180,9 +336,12 @@ impl TetherGroup {
             pin: Vec::new(),
             length: Vec::new(),
             lambda: Vec::new(),
+            rounds: vec![0],
             compliance: p.compliance,
             max_index: None,
         };
+        // (round, particle, pin, length): a particle's tethers, nearest pin first.
+        let mut tethers: Vec<(usize, u32, u32, f64)> = Vec::new();
         for (_, object) in scene.unique_targets()? {
             let range = object.particles();
             let first = object.first;
@@ -212,15 +371,23 @@ impl TetherGroup {
                 if w[i as usize] == 0.0 {
                     continue;
                 }
-                for &(pin, dist) in list {
-                    if dist > 0.0 {
-                        g.particle.push(i);
-                        g.pin.push(first + pin);
-                        g.length.push(p.scale * dist);
-                    }
+                let reachable = list.iter().filter(|&&(_, dist)| dist > 0.0);
+                for (round, &(pin, dist)) in reachable.enumerate() {
+                    tethers.push((round, i, first + pin, p.scale * dist));
                 }
             }
         }
+        // Round by round, each by particle (the objects' particles are disjoint ranges).
+        tethers.sort_by_key(|&(round, i, _, _)| (round, i));
+        for (k, &(round, i, pin, length)) in tethers.iter().enumerate() {
+            if round == g.rounds.len() {
+                g.rounds.push(k);
+            }
+            g.particle.push(i);
+            g.pin.push(pin);
+            g.length.push(length);
+        }
+        g.rounds.push(tethers.len());
         g.lambda = vec![0.0; g.particle.len()];
         g.max_index = g.particle.iter().chain(&g.pin).copied().max();
         Ok(g)
@@ -245,11 +412,12 @@ impl ConstraintGroup for TetherGroup {
         Ok(())
     }
 
-    /// One pass over the tethers in order. A tether moves only its particle (a pin has
-    /// infinite mass), and a particle's tethers are consecutive, so from `PARALLEL_MIN_TETHERS`
-    /// (2,048) tethers up the batch is split at particle boundaries over the host's thread
-    /// team (`ctx.team`, see [`nucleus_sdk::team`]): each particle's tethers run in the same
-    /// order on one thread, so the result is bit-identical whatever the thread count.
+    /// One pass over the tethers, round by round. A tether moves only its particle (a pin has
+    /// infinite mass), so from `PARALLEL_MIN_TETHERS` (2,048) tethers up the particles are
+    /// split into equal shares of the first round over the host's thread team (`ctx.team`, see
+    /// [`nucleus_sdk::team`]): each part runs its particles' tethers of every round, each
+    /// particle's in the same order on one thread, so the result is bit-identical whatever the
+    /// thread count — and the same as one tether at a time in the order particle by particle.
     fn project(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
         let (h, team) = (ctx.substep_length()?, ctx.team);
         ctx.check_holds(self.max_index)?;
@@ -258,46 +426,53 @@ impl ConstraintGroup for TetherGroup {
         let x = SharedArray::new(p.x);
         let lambda = SharedArray::new(&mut self.lambda);
         let (particle, pin, length) = (&self.particle[..], &self.pin[..], &self.length[..]);
-        let compliance = self.compliance;
+        let (rounds, compliance) = (&self.rounds[..], self.compliance);
         let n = particle.len();
-        // The part of the batch that `part` of `parts` projects: equal shares, each boundary
-        // moved forward to the start of a particle's run of tethers.
-        let span = |part: usize, parts: usize| {
-            let boundary = |b: usize| {
-                let mut b = b * n / parts;
-                while b > 0 && b < n && particle[b] == particle[b - 1] {
-                    b += 1;
-                }
-                b
-            };
-            boundary(part)..boundary(part + 1)
+        let parts = if team.parts() > 1 && n >= PARALLEL_MIN_TETHERS {
+            team.parts()
+        } else {
+            1
         };
-        let job = |part: usize, parts: usize| {
-            for k in span(part, parts) {
-                let (i, pin) = (particle[k] as usize, pin[k] as usize);
-                // SAFETY: `i` and `pin` are below `len` (checked above, against the state of
-                // this call). Particle `i` is written only by the part that owns its run of
-                // tethers; a pin is only read, and never written, since tethers of a particle
-                // with infinite mass are not built and `project_tether` moves no such particle.
-                // `lambda[k]` belongs to this part's span alone.
+        // The particles part `part` owns: from the first particle of its share of round 0 on.
+        let first_round = &particle[..rounds.get(1).copied().unwrap_or(0)];
+        let owned_from = |part: usize| match part {
+            0 => 0,
+            _ if part >= parts => u32::MAX,
+            _ => first_round
+                .get(part * first_round.len() / parts)
+                .copied()
+                .unwrap_or(u32::MAX),
+        };
+        let job = |part: usize| {
+            let (from, to) = (owned_from(part), owned_from(part + 1));
+            for r in rounds.windows(2) {
+                let round = &particle[r[0]..r[1]];
+                let start = r[0] + round.partition_point(|&i| i < from);
+                let end = r[0] + round.partition_point(|&i| i < to);
+                // SAFETY: every index is below the state's length (checked above, against the
+                // state of this call). The tethers `start..end` of a round move distinct
+                // particles, which this part alone owns (those in `from..to`); a pin is only
+                // read, and never written, since tethers of a particle with infinite mass are
+                // not built and `project_tether` moves no such particle. `lambda[start..end]`
+                // belongs to this part alone.
                 unsafe {
-                    let xi = *x.at(i);
-                    let xp = *x.at(pin);
-                    let l = lambda.at(k);
-                    if let Some((dx, dl)) =
-                        project_tether(xi, w[i], xp, length[k], compliance, *l, h)
-                    {
-                        *x.at(i) = xi + dx;
-                        *l += dl;
-                    }
+                    project_tethers(
+                        x,
+                        w,
+                        &particle[start..end],
+                        &pin[start..end],
+                        &length[start..end],
+                        lambda.slice(start, end - start),
+                        compliance,
+                        h,
+                    );
                 }
             }
         };
-        let parts = team.parts();
-        if parts > 1 && n >= PARALLEL_MIN_TETHERS {
-            team.run(&|part| job(part, parts));
+        if parts > 1 {
+            team.run(&job);
         } else {
-            job(0, 1);
+            job(0);
         }
         Ok(())
     }
@@ -351,6 +526,182 @@ mod tests {
         assert_eq!(near[2], vec![(0, 2.0), (4, 2.0)]);
         let near1 = k_nearest_sources(&adj, &[0, 4], 1);
         assert_eq!(near1[3], vec![(4, 1.0)]);
+    }
+
+    /// A coordinate: mostly ordinary, sometimes a value that breaks arithmetic (signed zeros,
+    /// infinities, NaN, subnormal, huge).
+    fn coordinate(rng: &mut nucleus_sdk::testing::Rng) -> f64 {
+        const SPECIAL: [f64; 8] = [
+            0.0,
+            -0.0,
+            f64::INFINITY,
+            -1e300,
+            f64::NAN,
+            1e-310,
+            1e300,
+            1.0,
+        ];
+        if rng.next_f64() < 0.05 {
+            SPECIAL[rng.pick(SPECIAL.len())]
+        } else {
+            rng.range(-2.0, 2.0)
+        }
+    }
+
+    #[test]
+    fn four_lanes_give_the_bits_of_one_tether_at_a_time() {
+        if !nucleus_sdk::lanes::avx2_available() {
+            eprintln!("this processor has no AVX2: the four-lane tether kernel is not exercised");
+        }
+        let mut rng = nucleus_sdk::testing::Rng(0x7e7e);
+        for case in 0..400 {
+            // 64 particles (the first 8 pins), a round of up to 43 tethers on distinct ones.
+            let n = 64;
+            let x: Vec<DVec3> = (0..n)
+                .map(|_| {
+                    DVec3::new(
+                        coordinate(&mut rng),
+                        coordinate(&mut rng),
+                        coordinate(&mut rng),
+                    )
+                })
+                .collect();
+            let w: Vec<f64> = (0..n)
+                .map(|i| match (i < 8, rng.pick(10)) {
+                    (true, _) => 0.0,
+                    (false, 0) => 0.0,
+                    (false, 1) => 1e-300,
+                    _ => rng.range(0.1, 50.0),
+                })
+                .collect();
+            let mut free: Vec<u32> = (8..n as u32).collect();
+            for k in (1..free.len()).rev() {
+                free.swap(k, rng.pick(k + 1));
+            }
+            let count = rng.pick(44);
+            let particle = &free[..count];
+            let pin: Vec<u32> = (0..count).map(|_| rng.pick(8) as u32).collect();
+            let length: Vec<f64> = (0..count)
+                .map(|_| match rng.pick(8) {
+                    0 => 0.0,
+                    1 => 1e-13,
+                    _ => rng.range(0.0, 3.0),
+                })
+                .collect();
+            let lambda0: Vec<f64> = (0..count).map(|_| rng.range(-1e-3, 1e-3)).collect();
+            let compliance = [0.0, 1e-6, 1.0][case % 3];
+            let h = 1.0 / 600.0;
+
+            let mut x_lanes = x.clone();
+            let mut lambda_lanes = lambda0.clone();
+            // SAFETY: every index is inside `x_lanes`, the particles are distinct, and no pin
+            // is among them.
+            unsafe {
+                project_tethers(
+                    SharedArray::new(&mut x_lanes),
+                    &w,
+                    particle,
+                    &pin,
+                    &length,
+                    &mut lambda_lanes,
+                    compliance,
+                    h,
+                );
+            }
+            let (mut x_one, mut lambda_one) = (x.clone(), lambda0.clone());
+            for k in 0..count {
+                let (i, p) = (particle[k] as usize, pin[k] as usize);
+                if let Some((dx, dl)) = project_tether(
+                    x_one[i],
+                    w[i],
+                    x_one[p],
+                    length[k],
+                    compliance,
+                    lambda_one[k],
+                    h,
+                ) {
+                    x_one[i] += dx;
+                    lambda_one[k] += dl;
+                }
+            }
+            let bits = |v: &[DVec3]| -> Vec<[u64; 3]> {
+                v.iter().map(|p| p.to_array().map(f64::to_bits)).collect()
+            };
+            assert_eq!(bits(&x_lanes), bits(&x_one), "positions, case {case}");
+            let lbits = |v: &[f64]| -> Vec<u64> { v.iter().map(|l| l.to_bits()).collect() };
+            assert_eq!(
+                lbits(&lambda_lanes),
+                lbits(&lambda_one),
+                "multipliers, case {case}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_pass_in_rounds_gives_the_bits_of_one_particle_after_another() {
+        use crate::tests::{Mesh, State, Steps};
+        // A 40 x 40 grid hung from four pins, three tethers a particle (4,900, enough to split
+        // a pass over a team), crumpled at random.
+        let mut mesh = Mesh::grid(40, 1.0);
+        for pin in [0, 17, 40, 1200] {
+            mesh.inv_mass[pin] = 0.0;
+        }
+        let mut rng = nucleus_sdk::testing::Rng(31);
+        let x: Vec<[f64; 3]> = mesh
+            .rest
+            .iter()
+            .map(|r| (DVec3::from_array(*r) * 1.6 + rng.vec3(0.3)).to_array())
+            .collect();
+        let params = TetherParams {
+            pins_per_particle: 3,
+            scale: 1.0,
+            compliance: 1e-7,
+        };
+        let mut group = mesh
+            .with_scene(&[0], |scene| TetherGroup::new(&params, scene))
+            .unwrap();
+        assert_eq!(group.rounds.len(), 4, "three rounds: {:?}", group.rounds);
+        // Each round by particle; every particle's tethers nearest pin first.
+        for r in group.rounds.windows(2) {
+            assert!(group.particle[r[0]..r[1]].windows(2).all(|p| p[0] < p[1]));
+        }
+        assert!(group.particle.len() >= PARALLEL_MIN_TETHERS);
+        // The reference: particle after particle, each one's tethers in its own order.
+        let mut order: Vec<usize> = (0..group.particle.len()).collect();
+        order.sort_by_key(|&k| (group.particle[k], k));
+        let mut state = State::new(&mesh, x.clone());
+        // Passes split over teams of one, two and three parts, in turn.
+        let teams = [0, 1, 2].map(nucleus_sdk::team::Team::new);
+        let mut reference: Vec<DVec3> = x.iter().map(|p| DVec3::from_array(*p)).collect();
+        let mut lambda = vec![0.0; order.len()];
+        for pass in 0..6 {
+            for &k in &order {
+                let (i, p) = (group.particle[k] as usize, group.pin[k] as usize);
+                if let Some((dx, dl)) = project_tether(
+                    reference[i],
+                    mesh.inv_mass[i],
+                    reference[p],
+                    group.length[k],
+                    params.compliance,
+                    lambda[k],
+                    state.h,
+                ) {
+                    reference[i] += dx;
+                    lambda[k] += dl;
+                }
+            }
+            let team = &teams[pass % 3];
+            let mut ctx = state.ctx();
+            ctx.team = nucleus_sdk::team::TeamRef::new(team);
+            group.project(&mut ctx).unwrap();
+            let got: Vec<[u64; 3]> = state.x.iter().map(|p| p.map(f64::to_bits)).collect();
+            let want: Vec<[u64; 3]> = reference
+                .iter()
+                .map(|p| p.to_array().map(f64::to_bits))
+                .collect();
+            assert_eq!(got, want, "pass {pass}, {} parts", team.parts());
+            assert!(state.x.iter().zip(&x).any(|(a, b)| a != b), "nothing moved");
+        }
     }
 
     #[test]
