@@ -168,14 +168,10 @@ pub fn project_tether(
 /// # Safety
 /// `x` holds every particle and pin index, valid for the call; no two tethers move the same
 /// particle; no other thread touches these particles meanwhile, nor writes the pins.
-#[allow(clippy::too_many_arguments)]
 unsafe fn project_tethers(
     x: SharedArray<DVec3>,
     w: &[f64],
-    particle: &[u32],
-    pin: &[u32],
-    length: &[f64],
-    lambda: &mut [f64],
+    mut round: Round<'_>,
     compliance: f64,
     h: f64,
 ) {
@@ -183,8 +179,14 @@ unsafe fn project_tethers(
     #[cfg(target_arch = "x86_64")]
     if nucleus_sdk::lanes::avx2_available() {
         // SAFETY: AVX2 is present; the rest is the caller's guarantee.
-        done = unsafe { avx2::project_fours(x, w, particle, pin, length, lambda, compliance, h) };
+        done = unsafe { avx2::project_fours(x, w, &mut round, compliance, h) };
     }
+    let Round {
+        particle,
+        pin,
+        length,
+        lambda,
+    } = round;
     for k in done..particle.len() {
         let (i, pin) = (particle[k] as usize, pin[k] as usize);
         // SAFETY: the caller's guarantee.
@@ -201,6 +203,14 @@ unsafe fn project_tethers(
     }
 }
 
+/// The tethers of one round a part projects: particle, pin, length and multiplier of each.
+struct Round<'a> {
+    particle: &'a [u32],
+    pin: &'a [u32],
+    length: &'a [f64],
+    lambda: &'a mut [f64],
+}
+
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
     use std::arch::x86_64::*;
@@ -215,17 +225,15 @@ mod avx2 {
     /// # Safety
     /// As [`project_tethers`], and AVX2 is present.
     #[target_feature(enable = "avx2")]
-    #[allow(clippy::too_many_arguments)]
     pub(super) unsafe fn project_fours(
         x: SharedArray<DVec3>,
         w: &[f64],
-        particle: &[u32],
-        pin: &[u32],
-        length: &[f64],
-        lambda: &mut [f64],
+        round: &mut Round<'_>,
         compliance: f64,
         h: f64,
     ) -> usize {
+        let (particle, pin, length) = (round.particle, round.pin, round.length);
+        let lambda = &mut *round.lambda;
         let n = particle.len() / 4 * 4;
         let p = x.at(0);
         // `delta_lambda`'s `α̃ = α / h²`, and its guard on the denominator.
@@ -456,16 +464,13 @@ impl ConstraintGroup for TetherGroup {
                 // not built and `project_tether` moves no such particle. `lambda[start..end]`
                 // belongs to this part alone.
                 unsafe {
-                    project_tethers(
-                        x,
-                        w,
-                        &particle[start..end],
-                        &pin[start..end],
-                        &length[start..end],
-                        lambda.slice(start, end - start),
-                        compliance,
-                        h,
-                    );
+                    let round = Round {
+                        particle: &particle[start..end],
+                        pin: &pin[start..end],
+                        length: &length[start..end],
+                        lambda: lambda.slice(start, end - start),
+                    };
+                    project_tethers(x, w, round, compliance, h);
                 }
             }
         };
@@ -597,16 +602,13 @@ mod tests {
             // SAFETY: every index is inside `x_lanes`, the particles are distinct, and no pin
             // is among them.
             unsafe {
-                project_tethers(
-                    SharedArray::new(&mut x_lanes),
-                    &w,
+                let round = Round {
                     particle,
-                    &pin,
-                    &length,
-                    &mut lambda_lanes,
-                    compliance,
-                    h,
-                );
+                    pin: &pin,
+                    length: &length,
+                    lambda: &mut lambda_lanes,
+                };
+                project_tethers(SharedArray::new(&mut x_lanes), &w, round, compliance, h);
             }
             let (mut x_one, mut lambda_one) = (x.clone(), lambda0.clone());
             for k in 0..count {
