@@ -237,6 +237,30 @@ objects = ["cloth"]
 }
 
 #[test]
+fn more_threads_than_a_team_may_have_give_the_bits_of_one_thread() {
+    // 64 threads asked for: the team runs its 32 parts (one bit each in its claim word), every
+    // job split 32 ways with most parts stolen by whichever thread is running, on two cores.
+    let scene = temp_dir("wide-team-scene").join("scene.toml");
+    let constraints = "[[constraints]]\nkind = \"stretch\"\nobjects = [\"cloth\"]\n\
+                       [[constraints]]\nkind = \"tether\"\nobjects = [\"cloth\"]\n";
+    std::fs::write(&scene, drape_text(64, 4, 4, 1, constraints)).unwrap();
+    let scene = scene.to_str().unwrap();
+    let one = run_with("wide-team-1", scene, "1", &[]);
+    let wide = run_with("wide-team-64", scene, "64", &[]);
+    assert_same_frames(&one, &wide, 4, "1 and 64 threads");
+    let summary = std::fs::read_to_string(wide.join("run.json")).unwrap();
+    assert!(
+        summary.contains("on 32 threads"),
+        "the summary names the threads that ran: {summary}"
+    );
+    let (first, last) = (
+        std::fs::read(one.join("frame_0000.obj")).unwrap(),
+        std::fs::read(one.join("frame_0004.obj")).unwrap(),
+    );
+    assert!(first != last, "the cloth must have moved");
+}
+
+#[test]
 fn bending_on_one_and_two_threads_gives_bit_identical_frames() {
     // 64 × 64: about 12,000 hinges per bend group in colours of several hundred, and 24,000
     // shear corners, each colour split over the team (`PARALLEL_MIN_CONSTRAINTS`).
