@@ -434,7 +434,7 @@ fn run(args: RunArgs) -> Result<(), Failure> {
     bar.finish_and_clear();
     let residuals = sim.residuals().map_err(Failure::run)?;
     // The team runs at most `MAX_PARTS` parts, whatever was asked.
-    let threads = sim.threads.clamp(1, nucleus_sdk::team::MAX_PARTS);
+    let threads = nucleus_sdk::team::parts_for(sim.threads);
     let mut summary = format!(
         "{} frames, {} particles, {} groups; step {:.3} ms/frame on {} thread{}; total {:.2} s",
         frames,

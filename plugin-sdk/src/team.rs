@@ -105,6 +105,11 @@ fn number(state: u64) -> u64 {
 /// A larger `RAYON_NUM_THREADS` runs 32 parts (a job's results never depend on the count).
 pub const MAX_PARTS: usize = 32;
 
+/// The parts a team runs for `threads` threads asked for: at least one, at most [`MAX_PARTS`].
+pub fn parts_for(threads: usize) -> usize {
+    threads.clamp(1, MAX_PARTS)
+}
+
 /// Claims a part of job `job` (a number, as [`number`] reads it) of `parts` parts: part `own`
 /// if it is still unclaimed, else the lowest unclaimed one; `None` when all are claimed or
 /// another job is current. The caller asks with `own = 0`, helper `n` with `n`: each thread
@@ -182,7 +187,7 @@ impl Team {
         Team {
             shared,
             threads: Vec::new(),
-            parts: helpers.min(MAX_PARTS - 1) + 1,
+            parts: parts_for(helpers.saturating_add(1)),
         }
     }
 
@@ -336,7 +341,7 @@ pub fn shared(parts: usize) -> Option<std::sync::MutexGuard<'static, Option<Team
     };
     // A team never has more than `MAX_PARTS` parts: compare with what it would have, or a
     // larger request would build a new team at every call.
-    let parts = parts.clamp(1, MAX_PARTS);
+    let parts = parts_for(parts);
     if guard.as_ref().map_or(1, Team::parts) != parts {
         *guard = (parts > 1).then(|| Team::new(parts - 1));
     }
@@ -346,12 +351,13 @@ pub fn shared(parts: usize) -> Option<std::sync::MutexGuard<'static, Option<Team
 /// The thread count the host uses: `RAYON_NUM_THREADS` when it is a positive integer, else the
 /// machine's available parallelism; at most [`MAX_PARTS`].
 pub fn configured_threads() -> usize {
-    std::env::var("RAYON_NUM_THREADS")
-        .ok()
-        .and_then(|s| s.trim().parse::<usize>().ok())
-        .filter(|&n| n > 0)
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
-        .min(MAX_PARTS)
+    parts_for(
+        std::env::var("RAYON_NUM_THREADS")
+            .ok()
+            .and_then(|s| s.trim().parse::<usize>().ok())
+            .filter(|&n| n > 0)
+            .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get())),
+    )
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -534,7 +540,7 @@ unsafe impl<T: Send> Sync for SharedArray<T> {}
 /// The index range part `part` of `parts` owns in `0..n`: contiguous, in order, covering
 /// `0..n` exactly once over the parts, and a function of the three numbers alone.
 pub fn span(part: usize, parts: usize, n: usize) -> std::ops::Range<usize> {
-    let parts = parts.max(1);
+    let parts = parts_for(parts);
     part * n / parts..(part + 1) * n / parts
 }
 
