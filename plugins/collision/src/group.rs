@@ -201,6 +201,8 @@ pub struct CollisionGroup {
     pending: Vec<(Candidate, f64)>,
     /// Broad-phase scratch of each part of the thread team: its hits and its query stack.
     part_pending: Vec<Vec<(Candidate, f64)>>,
+    /// The candidates each part of the team keeps in a refresh ([`merge_kept`]).
+    part_kept: Vec<usize>,
     part_stacks: Vec<Vec<u32>>,
     /// Candidate pairs, sorted.
     candidates: Vec<Candidate>,
@@ -306,6 +308,116 @@ const REFRESH_MAX_SHARE: usize = 8;
 /// team. Chosen, not tuned: a query costs about a microsecond, the team's hand-off about as
 /// much as one.
 const PARALLEL_MIN_QUERIES: usize = 512;
+
+/// From this many items up, the per-candidate and per-primitive maps (the candidates' particles,
+/// the carried separations, the primitives' boxes) are split over the thread team. Each item
+/// costs a few nanoseconds, the team's hand-off about a microsecond.
+const PARALLEL_MIN_ITEMS: usize = 16384;
+
+/// `out[i] = f(i)` for every `i`, the indices split over the team in contiguous ranges from
+/// [`PARALLEL_MIN_ITEMS`] on: each value is computed alone, so the array is the same on any
+/// number of threads.
+fn fill_over_team<T: Send>(team: TeamRef<'_>, out: &mut [T], f: impl Fn(usize) -> T + Sync) {
+    let n = out.len();
+    let shared = SharedArray::new(out);
+    team.for_ranges(n, PARALLEL_MIN_ITEMS, &|r| {
+        // SAFETY: the ranges of `for_ranges` are disjoint and inside `0..n`, and `out` is
+        // exclusively borrowed for this call.
+        let out = unsafe { shared.slice(r.start, r.len()) };
+        for (o, i) in out.iter_mut().zip(r) {
+            *o = f(i);
+        }
+    });
+}
+
+/// The candidates of `old` (sorted, with their reaches) that `keep` keeps, merged with `fresh`
+/// (sorted, none of them in `old`), into `out`: the sorted union. From [`PARALLEL_MIN_ITEMS`]
+/// candidates on, `old` is split over the team in contiguous ranges: each part counts what it
+/// keeps (`kept`, one count per part), and then writes its kept candidates merged with the
+/// fresh ones that sort between its first candidate and the next part's, at the place the
+/// counts before it give. The list is the same on any number of threads.
+fn merge_kept(
+    team: TeamRef<'_>,
+    (old, reach): (&[Candidate], &[f64]),
+    keep: &(dyn Fn(Candidate) -> bool + Sync),
+    fresh: &[(Candidate, f64)],
+    kept: &mut Vec<usize>,
+    out: &mut Vec<(Candidate, f64)>,
+) {
+    /// Appends `old`'s kept candidates merged with `fresh` to `out`.
+    fn merge_into(
+        (old, reach): (&[Candidate], &[f64]),
+        keep: &(dyn Fn(Candidate) -> bool + Sync),
+        fresh: &[(Candidate, f64)],
+        mut out: impl FnMut((Candidate, f64)),
+    ) {
+        let mut next = fresh.iter().peekable();
+        for (&c, &d) in old.iter().zip(reach) {
+            if !keep(c) {
+                continue;
+            }
+            while let Some(&&f) = next.peek() {
+                if f.0 >= c {
+                    break;
+                }
+                out(f);
+                next.next();
+            }
+            out((c, d));
+        }
+        next.for_each(|&f| out(f));
+    }
+    out.clear();
+    let (n, parts) = (old.len(), team.parts());
+    if parts < 2 || n < PARALLEL_MIN_ITEMS {
+        merge_into((old, reach), keep, fresh, |f| out.push(f));
+        return;
+    }
+    kept.clear();
+    kept.resize(parts, 0);
+    let counts = SharedArray::new(kept);
+    team.run(&|part| {
+        let r = span(part, parts, n);
+        let count = old[r].iter().filter(|&&c| keep(c)).count();
+        // SAFETY: each part writes only its own count; `kept` holds `parts` of them and is
+        // exclusively borrowed until the writes below.
+        unsafe { *counts.at(part) = count };
+    });
+    // Where each part's fresh candidates start: those before its first candidate belong to the
+    // parts before (all of them to part 0 when they sort before every candidate).
+    let fresh_from = |part: usize| match part {
+        0 => 0,
+        p if p >= parts => fresh.len(),
+        p => fresh.partition_point(|f| f.0 < old[span(p, parts, n).start]),
+    };
+    let total = kept.iter().sum::<usize>() + fresh.len();
+    let placeholder = (
+        Candidate {
+            kind: PairKind::Collider,
+            pair: [0; 2],
+        },
+        f64::NAN,
+    );
+    out.resize(total, placeholder);
+    let (kept, slots) = (&*kept, SharedArray::new(out));
+    team.run(&|part| {
+        let r = span(part, parts, n);
+        let (f0, f1) = (fresh_from(part), fresh_from(part + 1));
+        let at = kept[..part].iter().sum::<usize>() + f0;
+        let len = kept[part] + (f1 - f0);
+        // SAFETY: part `part` writes `at..at + len`: its kept candidates and the fresh ones
+        // between its first candidate and the next part's, after everything the parts before
+        // write. The ranges are disjoint, cover `0..total` and lie inside `out`, which is
+        // exclusively borrowed for this call.
+        let mine = unsafe { slots.slice(at, len) };
+        let mut i = 0;
+        merge_into((&old[r.clone()], &reach[r]), keep, &fresh[f0..f1], |f| {
+            mine[i] = f;
+            i += 1;
+        });
+        debug_assert_eq!(i, len, "a part's merge filled its place");
+    });
+}
 
 /// A range of the broad phase's queries: `(group, range, stack, hits)`.
 type QueryFn<'q> = dyn Fn(&CollisionGroup, std::ops::Range<usize>, &mut Vec<u32>, &mut Vec<(Candidate, f64)>)
@@ -689,6 +801,7 @@ impl CollisionGroup {
             pose1: Vec::new(),
             pending: Vec::new(),
             part_pending: Vec::new(),
+            part_kept: Vec::new(),
             part_stacks: Vec::new(),
             candidates: Vec::new(),
             reach: Vec::new(),
@@ -1283,10 +1396,15 @@ impl CollisionGroup {
         self.stats.broad_phases += 1;
         for kind in 0..3 {
             let mut boxes = std::mem::take(self.boxes_and_flags(kind).0);
-            for (i, b) in boxes.iter_mut().enumerate() {
-                let (tight, radius) = self.tight_box(kind, i);
-                *b = tight.grow(margin(radius));
-            }
+            let (this, n, shared) = (&*self, boxes.len(), SharedArray::new(&mut boxes));
+            team.for_ranges(n, PARALLEL_MIN_ITEMS, &|r| {
+                // SAFETY: the ranges of `for_ranges` are disjoint and inside `boxes` (one box
+                // per primitive of the kind), exclusively borrowed here.
+                let boxes = unsafe { shared.slice(r.start, r.len()) };
+                this.each_tight_box(kind, r, |j, tight, radius| {
+                    boxes[j] = tight.grow(margin(radius));
+                });
+            });
             *self.boxes_and_flags(kind).0 = boxes;
         }
         self.edge_bvh.refit(&self.edge_boxes);
@@ -1457,13 +1575,19 @@ impl CollisionGroup {
         self.found_inv_mass.clear();
         self.found_inv_mass
             .extend(self.verts.iter().map(|&p| inv_mass[p as usize]));
-        self.adopt(pending, stack, x);
+        self.adopt(pending, stack, x, team);
     }
 
     /// Makes `pending` (sorted) the candidates, with their particles, and restarts the passes'
     /// state; keeps both buffers for the next broad phase. Within a substep, the candidates
     /// found again keep their separations ([`Self::carry_separations`]).
-    fn adopt(&mut self, mut pending: Vec<(Candidate, f64)>, stack: Vec<u32>, x: &[DVec3]) {
+    fn adopt(
+        &mut self,
+        mut pending: Vec<(Candidate, f64)>,
+        stack: Vec<u32>,
+        x: &[DVec3],
+        team: TeamRef<'_>,
+    ) {
         if pending.len() > self.candidate_budget {
             // The substep fails (`over_budget_error`); the list and its memory are dropped.
             self.over_budget = self.over_budget.max(pending.len());
@@ -1493,11 +1617,15 @@ impl CollisionGroup {
         self.stats.candidates = self.stats.candidates.max(self.candidates.len());
         let mut cand_ids = std::mem::take(&mut self.cand_ids);
         cand_ids.clear();
-        cand_ids.extend(self.candidates.iter().map(|&c| self.candidate_ids(c)));
+        cand_ids.resize(self.candidates.len(), [0; 4]);
+        let this = &*self;
+        fill_over_team(team, &mut cand_ids, |k| {
+            this.candidate_ids(this.candidates[k])
+        });
         self.cand_ids = cand_ids;
         self.restart_passes(x);
         if carry {
-            self.carry_separations();
+            self.carry_separations(team);
         }
     }
 
@@ -1509,34 +1637,68 @@ impl CollisionGroup {
     /// where they are now. A refresh after a few primitives left their boxes then costs the
     /// exact distances of the new pairs only, not those of every pair again; the skips stay
     /// the verdicts of the full tests ([`Self::skip`]), so the same contacts and bits.
-    fn carry_separations(&mut self) {
-        let (old, new) = (&self.old_candidates, &self.candidates);
-        let (mut i, mut j) = (0, 0);
-        while i < old.len() && j < new.len() {
-            match old[i].cmp(&new[j]) {
-                std::cmp::Ordering::Less => i += 1,
-                std::cmp::Ordering::Greater => j += 1,
-                std::cmp::Ordering::Equal => {
-                    let (from, to) = (
-                        start_slot(self.old_start_split, i),
-                        start_slot(self.start_split, j),
-                    );
-                    if let (Some(from), Some(to)) = (from, to) {
-                        self.start[to] = self.old_start[from];
+    ///
+    /// The new list is split over the team in contiguous ranges, each merged with the part of
+    /// the old list from its first candidate on (both lists are sorted): every candidate's
+    /// values come from its own old twin alone, so the same on any number of threads.
+    fn carry_separations(&mut self, team: TeamRef<'_>) {
+        let mut start = std::mem::take(&mut self.start);
+        let mut separation = std::mem::take(&mut self.separation);
+        let mut moved = std::mem::take(&mut self.separation_moved);
+        let n = self.candidates.len();
+        {
+            let this = &*self;
+            let (start_n, split) = (start.len(), self.start_split);
+            let (st, sep, mov) = (
+                SharedArray::new(&mut start),
+                SharedArray::new(&mut separation),
+                SharedArray::new(&mut moved),
+            );
+            team.for_ranges(n, PARALLEL_MIN_ITEMS, &|r| {
+                // SAFETY: the ranges of `for_ranges` are disjoint and inside `0..n`, the length
+                // of the two separation arrays; a candidate's start slot is a strictly
+                // increasing function of its index within `0..start_n` ([`start_slot`]), so
+                // the ranges' slots are disjoint too. The three arrays are exclusively
+                // borrowed for this block.
+                let (sep, mov) =
+                    unsafe { (sep.slice(r.start, r.len()), mov.slice(r.start, r.len())) };
+                let (old, new) = (&this.old_candidates, &this.candidates[r.clone()]);
+                let Some(first) = new.first() else {
+                    return;
+                };
+                let mut i = old.partition_point(|c| c < first);
+                let mut j = 0;
+                while i < old.len() && j < new.len() {
+                    match old[i].cmp(&new[j]) {
+                        std::cmp::Ordering::Less => i += 1,
+                        std::cmp::Ordering::Greater => j += 1,
+                        std::cmp::Ordering::Equal => {
+                            let k = r.start + j;
+                            let (from, to) =
+                                (start_slot(this.old_start_split, i), start_slot(split, k));
+                            if let (Some(from), Some(to)) = (from, to) {
+                                debug_assert!(to < start_n);
+                                // SAFETY: `to` is this candidate's own slot (above).
+                                unsafe { *st.at(to) = this.old_start[from] };
+                            }
+                            let s = this.old_separation[i];
+                            if !s.d0.is_nan() {
+                                let m1 = this.cand_ids[k]
+                                    .iter()
+                                    .fold(0.0f64, |m, &p| m.max(this.carry_moved[p as usize]));
+                                sep[j] = s;
+                                mov[j] = this.old_separation_moved[i] + m1;
+                            }
+                            i += 1;
+                            j += 1;
+                        }
                     }
-                    let s = self.old_separation[i];
-                    if !s.d0.is_nan() {
-                        let m1 = self.cand_ids[j]
-                            .iter()
-                            .fold(0.0f64, |m, &p| m.max(self.carry_moved[p as usize]));
-                        self.separation[j] = s;
-                        self.separation_moved[j] = self.old_separation_moved[i] + m1;
-                    }
-                    i += 1;
-                    j += 1;
                 }
-            }
+            });
         }
+        self.start = start;
+        self.separation = separation;
+        self.separation_moved = moved;
     }
 
     /// After some primitives left their boxes (during the passes, or since the last substep):
@@ -1560,14 +1722,31 @@ impl CollisionGroup {
         for kind in 0..3 {
             let (b, f) = self.boxes_and_flags(kind);
             let (mut boxes, mut flags) = (std::mem::take(b), std::mem::take(f));
-            for (i, (b, out)) in boxes.iter_mut().zip(flags.iter_mut()).enumerate() {
-                let (tight, radius) = self.tight_box(kind, i);
-                *out = !b.contains(&tight);
-                if *out {
-                    *b = tight.grow(margin(radius));
-                    count += 1;
-                }
+            let n = flags.len();
+            debug_assert_eq!(boxes.len(), n, "one escape mark per primitive");
+            {
+                let this = &*self;
+                let (shared_boxes, shared_flags) =
+                    (SharedArray::new(&mut boxes), SharedArray::new(&mut flags));
+                team.for_ranges(n, PARALLEL_MIN_ITEMS, &|r| {
+                    // SAFETY: the ranges of `for_ranges` are disjoint and inside the two
+                    // arrays (one box and one flag per primitive), exclusively borrowed here.
+                    let (boxes, flags) = unsafe {
+                        (
+                            shared_boxes.slice(r.start, r.len()),
+                            shared_flags.slice(r.start, r.len()),
+                        )
+                    };
+                    this.each_tight_box(kind, r, |j, tight, radius| {
+                        let out = !boxes[j].contains(&tight);
+                        flags[j] = out;
+                        if out {
+                            boxes[j] = tight.grow(margin(radius));
+                        }
+                    });
+                });
             }
+            count += flags.iter().filter(|&&out| out).count();
             let (b, f) = self.boxes_and_flags(kind);
             (*b, *f) = (boxes, flags);
         }
@@ -1636,24 +1815,18 @@ impl CollisionGroup {
         // Merge them with the candidates that involve no escaped primitive (both sorted,
         // disjoint).
         let mut pending = std::mem::take(&mut self.pending);
-        pending.clear();
-        let mut next = fresh.iter().peekable();
-        for (&c, &d) in self.candidates.iter().zip(&self.reach) {
-            if self.involves_escaped(c) {
-                continue;
-            }
-            while let Some(&&(f, fd)) = next.peek() {
-                if f >= c {
-                    break;
-                }
-                pending.push((f, fd));
-                next.next();
-            }
-            pending.push((c, d));
-        }
-        pending.extend(next);
+        let mut part_kept = std::mem::take(&mut self.part_kept);
+        merge_kept(
+            team,
+            (&self.candidates, &self.reach),
+            &|c| !self.involves_escaped(c),
+            &fresh,
+            &mut part_kept,
+            &mut pending,
+        );
+        self.part_kept = part_kept;
         self.fresh = fresh;
-        self.adopt(pending, stack, x);
+        self.adopt(pending, stack, x, team);
         true
     }
 
@@ -1781,7 +1954,7 @@ impl CollisionGroup {
     }
 
     /// The tight swept box of every particle of a primitive over the substep so far,
-    /// `[x0, x − shift]` ([`Self::tight_box`]).
+    /// `[x0, x − shift]` ([`Self::tight_box_of`]).
     fn fill_particle_boxes(&mut self, x0: &[DVec3], x: &[DVec3]) {
         let s = self.shift;
         for &p in &self.box_particles {
@@ -1790,14 +1963,26 @@ impl CollisionGroup {
         }
     }
 
-    /// The tight swept box of vertex, edge or face `i` (`kind` 0, 1, 2) and its radius, from
+    /// [`Self::tight_box_of`] for a kind chosen at run time (the tests').
+    #[cfg(test)]
+    fn tight_box(&self, kind: usize, i: usize) -> (Aabb, f64) {
+        match kind {
+            0 => self.tight_box_of::<0>(i),
+            1 => self.tight_box_of::<1>(i),
+            _ => self.tight_box_of::<2>(i),
+        }
+    }
+
+    /// The tight swept box of vertex, edge or face `i` (`KIND` 0, 1, 2) and its radius, from
     /// the particle boxes just filled: the union of its particles' grown by its radius, which
     /// is [`Self::vert_box`], [`Self::edge_box`] or [`Self::face_box`] (the same minima and
-    /// maxima of the same coordinates, then the same growth).
-    #[inline]
-    fn tight_box(&self, kind: usize, i: usize) -> (Aabb, f64) {
+    /// maxima of the same coordinates, then the same growth). The kind is a constant so that
+    /// the loops over every primitive of a kind ([`Self::each_tight_box`]) pay no call and no
+    /// branch per primitive for it (a run-time kind made those loops 1.1x dearer).
+    #[inline(always)]
+    fn tight_box_of<const KIND: usize>(&self, i: usize) -> (Aabb, f64) {
         let pb = |p: u32| self.particle_boxes[p as usize];
-        let (b, obj) = match kind {
+        let (b, obj) = match KIND {
             0 => (pb(self.verts[i]), self.vert_obj[i]),
             1 => {
                 let [a, b] = self.edges[i];
@@ -1810,6 +1995,32 @@ impl CollisionGroup {
         };
         let radius = self.radius(obj);
         (b.grow(radius), radius)
+    }
+
+    /// `f(j, tight box, radius)` for every primitive `i = range.start + j` of `kind` in `range`
+    /// ([`Self::tight_box_of`]), the kind chosen once for the whole range.
+    #[inline]
+    fn each_tight_box(
+        &self,
+        kind: usize,
+        range: std::ops::Range<usize>,
+        mut f: impl FnMut(usize, Aabb, f64),
+    ) {
+        let start = range.start;
+        match kind {
+            0 => range.for_each(|i| {
+                let (b, r) = self.tight_box_of::<0>(i);
+                f(i - start, b, r)
+            }),
+            1 => range.for_each(|i| {
+                let (b, r) = self.tight_box_of::<1>(i);
+                f(i - start, b, r)
+            }),
+            _ => range.for_each(|i| {
+                let (b, r) = self.tight_box_of::<2>(i);
+                f(i - start, b, r)
+            }),
+        }
     }
 
     /// Whether candidate `c` has a primitive marked escaped by [`Self::refresh_escaped`].
@@ -2203,7 +2414,13 @@ impl CollisionGroup {
         x: &[DVec3],
     ) -> (PairKind, [Track; 4]) {
         let a = cand.pair[0] as usize;
-        let mut tr = ids.map(|i| track(x0, x, i));
+        let [p, q, r, t] = *ids;
+        let mut tr = [
+            track(x0, x, p),
+            track(x0, x, q),
+            track(x0, x, r),
+            track(x0, x, t),
+        ];
         let kind = match cand.kind {
             PairKind::FeatureFace => {
                 let [p0, p1] = self.feat_point_tracks[a];
@@ -2287,7 +2504,7 @@ impl CollisionGroup {
         match cand.kind {
             PairKind::VertexFace | PairKind::EdgeEdge | PairKind::VertexEdge => {
                 let ids = self.cand_ids[k];
-                let tr = ids.map(track);
+                let tr = self.candidate_tracks(k, x0, x);
                 let s = known.or_else(|| pairs::separation(cand.kind, &tr))?;
                 pairs::separated_contact(cand.kind, s, cand.pair, ids, &tr, d)
             }
@@ -3554,6 +3771,85 @@ mod tests {
     use super::*;
     use nucleus_sdk::abi_stable::std_types::RSlice;
     use nucleus_sdk::testing::Rng;
+
+    /// The sorted candidates `[kind, a, b]` of a random list: distinct, `n` of them.
+    fn random_candidates(rng: &mut Rng, n: usize) -> Vec<Candidate> {
+        let kinds = [
+            PairKind::Collider,
+            PairKind::VertexFace,
+            PairKind::EdgeEdge,
+            PairKind::FeatureFace,
+        ];
+        let mut list: Vec<Candidate> = (0..n)
+            .map(|_| Candidate {
+                kind: kinds[rng.pick(kinds.len())],
+                pair: [rng.pick(300) as u32, rng.pick(300) as u32],
+            })
+            .collect();
+        list.sort_unstable();
+        list.dedup();
+        list
+    }
+
+    #[test]
+    fn a_refresh_merges_the_same_list_on_any_team() {
+        let teams = [0, 1, 2, 4].map(nucleus_sdk::team::Team::new);
+        let mut rng = Rng(23);
+        for round in 0..40 {
+            // Sizes on both sides of the split: from a few candidates to several times
+            // `PARALLEL_MIN_ITEMS`, fresh lists from none to a third of them.
+            let n = [
+                10,
+                PARALLEL_MIN_ITEMS - 1,
+                PARALLEL_MIN_ITEMS,
+                3 * PARALLEL_MIN_ITEMS,
+            ][round % 4];
+            let all = random_candidates(&mut rng, n + n / 3 + 1);
+            let (mut old, mut fresh) = (Vec::new(), Vec::new());
+            for &c in &all {
+                if rng.pick(4) == 0 {
+                    fresh.push((c, rng.range(0.0, 1.0)));
+                } else {
+                    old.push(c);
+                }
+            }
+            if round % 5 == 0 {
+                fresh.clear();
+            }
+            let reach: Vec<f64> = old.iter().map(|_| rng.range(0.0, 1.0)).collect();
+            let dropped: Vec<u32> = (0..40).map(|_| rng.pick(300) as u32).collect();
+            let keep = |c: Candidate| !dropped.contains(&c.pair[0]);
+            // The expected list: the kept candidates and the fresh ones, sorted.
+            let mut expected: Vec<(Candidate, f64)> = (old.iter().zip(&reach))
+                .filter(|(&c, _)| keep(c))
+                .map(|(&c, &d)| (c, d))
+                .chain(fresh.iter().copied())
+                .collect();
+            expected.sort_by_key(|e| e.0);
+            for team in &teams {
+                let (mut kept, mut out) = (Vec::new(), vec![(all[0], 7.0)]);
+                merge_kept(
+                    TeamRef::new(team),
+                    (&old, &reach),
+                    &keep,
+                    &fresh,
+                    &mut kept,
+                    &mut out,
+                );
+                let bits = |l: &[(Candidate, f64)]| -> Vec<(Candidate, u64)> {
+                    l.iter().map(|&(c, d)| (c, d.to_bits())).collect()
+                };
+                assert_eq!(
+                    bits(&out),
+                    bits(&expected),
+                    "round {round}: {} candidates, {} fresh, a team of {} parts",
+                    old.len(),
+                    fresh.len(),
+                    TeamRef::new(team).parts()
+                );
+            }
+        }
+    }
 
     /// Rest positions, edges and triangles of a mesh.
     type Mesh = (Vec<[f64; 3]>, Vec<[u32; 2]>, Vec<[u32; 3]>);
