@@ -14,7 +14,8 @@ peers' Python environment for `--live`); `bench/README.md` explains every option
   <= 1 % (and <= 0.1 %); the same for strain_rms; and the ratio ours / theirs.
 
 Prints markdown tables, appends every measured row to WORK/results.jsonl and writes the doc
-(default docs/peers.md) with the date, machine, load and command. Python standard library only.
+(default docs/peers.md) with the date, machine, load and command, and beside it one SVG plot of
+strain against time per N (`front_plot.py`). Python standard library only.
 """
 
 import argparse
@@ -33,6 +34,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 sys.path.insert(0, HERE)
 import drape_metrics  # noqa: E402
+import front_plot  # noqa: E402
 
 THRESHOLDS = [("strain_max", 0.01), ("strain_max", 0.001), ("strain_rms", 0.01), ("strain_rms", 0.001)]
 TETHER_BLOCK = '\n[[constraints]]\nkind = "tether"\nobjects = ["cloth"]\n'
@@ -440,6 +442,16 @@ def main():
         return 0
     m = machine()
     command = a.command
+    # One plot per N beside the doc (front_plot.py): strain against time, every solver.
+    plots = []
+    for N in Ns:
+        svg = front_plot.plot(rows, N)
+        if svg:
+            path = os.path.splitext(os.path.abspath(a.doc))[0] + f"_N{N}.svg"
+            os.makedirs(os.path.dirname(path), exist_ok=True)
+            with open(path, "w") as f:
+                f.write(svg)
+            plots.append((N, os.path.basename(path)))
     doc = [
         "# Nucleus against the peer cloth solvers: the drape scene",
         "",
@@ -468,7 +480,13 @@ def main():
         "",
         "## Matched strain",
         "",
-    ] + matched + [
+    ] + matched + ([
+        "## Plots",
+        "",
+        "RMS and max strain against time per frame, every run (dots) and each solver's Pareto front "
+        "(lines), the target of the benchmark issue shaded (`bench/front_plot.py`).",
+        "",
+    ] + [f"![N = {N}]({name})" for N, name in plots] + [""] if plots else []) + [
         "## Pareto fronts (settings not beaten by a faster one on max strain)",
         "",
     ] + pareto_tables(rows, Ns) + [
