@@ -199,7 +199,8 @@ pub struct CollisionGroup {
     feat_edge_boxes: Vec<Aabb>,
     /// Broad-phase scratch: candidates with their contact distance, before sorting.
     pending: Vec<(Candidate, f64)>,
-    /// Broad-phase scratch of each part of the thread team: its hits and its query stack.
+    /// Broad-phase scratch over the thread team: each chunk's hits ([`claim_chunks`]) and each
+    /// part's query stack.
     part_pending: Vec<Vec<(Candidate, f64)>>,
     /// The candidates each part of the team keeps in a refresh ([`merge_kept`]).
     part_kept: Vec<usize>,
@@ -327,6 +328,35 @@ fn fill_over_team<T: Send>(team: TeamRef<'_>, out: &mut [T], f: impl Fn(usize) -
         for (o, i) in out.iter_mut().zip(r) {
             *o = f(i);
         }
+    });
+}
+
+/// How many chunks a job split over the team claims per part ([`claim_chunks`]): enough that
+/// a part whose chunks cost more (the edge–edge pairs sort after the vertex–face ones, and
+/// their exact distances cost more) is helped by the others, few enough that a chunk's
+/// hand-off stays small against its work.
+const CHUNKS_PER_PART: usize = 8;
+
+/// The index range chunk `c` of `chunks` owns in `0..n`: contiguous, in order, covering `0..n`
+/// over the chunks ([`span`] for more pieces than a team has parts).
+fn chunk_range(c: usize, chunks: usize, n: usize) -> std::ops::Range<usize> {
+    c * n / chunks..(c + 1) * n / chunks
+}
+
+/// Runs `f(part, chunk)` for every chunk `0..chunks` on the team, each chunk once, claimed by
+/// the parts in turn as they come free (a part that finds its chunks cheap takes more), with
+/// the claiming part's index. Whoever runs a chunk, it must write only what the chunk owns:
+/// the results are then the same on any number of threads.
+fn claim_chunks(team: TeamRef<'_>, chunks: usize, f: &(dyn Fn(usize, usize) + Sync)) {
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    team.run(&|part| loop {
+        // Relaxed: the counter only hands out chunk numbers; what the chunks write is published
+        // by the end of the team's job.
+        let c = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        if c >= chunks {
+            break;
+        }
+        f(part, c);
     });
 }
 
@@ -2096,9 +2126,11 @@ impl CollisionGroup {
 
     /// Runs `query` over `0..n` (vertices or edges), appending its hits to `pending`. Below
     /// [`PARALLEL_MIN_QUERIES`] queries, or on one thread, the whole range runs here, straight
-    /// into `pending` with `stack`; else each part of the team takes its own contiguous range
-    /// with its own stack and hit list, and the parts' hits are appended in part order. The
-    /// part buffers keep their capacity from step to step.
+    /// into `pending` with `stack`; else the range is cut into contiguous chunks, eight per
+    /// part, which the parts claim as they come free ([`claim_chunks`]; the queries of some
+    /// chunks find many more pairs than others'), each with its own hit list and its part's
+    /// stack, and the chunks' hits are appended in chunk order: the same list whoever ran
+    /// them. The buffers keep their capacity from step to step.
     fn split_queries(
         &mut self,
         n: usize,
@@ -2112,29 +2144,32 @@ impl CollisionGroup {
             query(self, 0..n, stack, pending);
             return;
         }
+        let chunks = (parts * CHUNKS_PER_PART).min(n);
         let mut outs = std::mem::take(&mut self.part_pending);
         let mut stacks = std::mem::take(&mut self.part_stacks);
-        if outs.len() < parts {
-            outs.resize_with(parts, Vec::new);
+        if outs.len() < chunks {
+            outs.resize_with(chunks, Vec::new);
+        }
+        if stacks.len() < parts {
             stacks.resize_with(parts, || Vec::with_capacity(128));
         }
         {
             let this = &*self;
             let (o, st) = (SharedArray::new(&mut outs), SharedArray::new(&mut stacks));
-            let job = |part: usize| {
-                // SAFETY: each part takes only its own element of the two arrays, which are
-                // exclusively borrowed for this block and hold at least `parts` elements.
-                let (out, stack) = unsafe { (&mut *o.at(part), &mut *st.at(part)) };
-                // Worked on as locals: the parts' vector headers share a cache line, and a
-                // push writes its length (sharing them made two threads 1.2x slower than one).
+            claim_chunks(team, chunks, &|part, c| {
+                // SAFETY: a chunk takes only its own hit list, and a part only its own stack
+                // (a part runs its chunks one after another); the arrays are exclusively
+                // borrowed for this block and hold at least `chunks` and `parts` elements.
+                let (out, stack) = unsafe { (&mut *o.at(c), &mut *st.at(part)) };
+                // Worked on as locals: the vector headers share cache lines, and a push writes
+                // its length (sharing them made two threads 1.2x slower than one).
                 let (mut hits, mut local) = (std::mem::take(out), std::mem::take(stack));
                 hits.clear();
-                query(this, span(part, parts, n), &mut local, &mut hits);
+                query(this, chunk_range(c, chunks, n), &mut local, &mut hits);
                 (*out, *stack) = (hits, local);
-            };
-            team.run(&job);
+            });
         }
-        for out in &outs[..parts] {
+        for out in &outs[..chunks] {
             pending.extend_from_slice(out);
         }
         self.part_pending = outs;
@@ -2617,9 +2652,10 @@ impl CollisionGroup {
                 SharedArray::new(&mut moved),
                 SharedArray::new(&mut ahead),
             );
-            team.run(&|part| {
-                let r = span(part, parts, n);
-                // SAFETY: each part writes only its own range `r` of the three arrays, which
+            let chunks = (parts * CHUNKS_PER_PART).min(n);
+            claim_chunks(team, chunks, &|_, c| {
+                let r = chunk_range(c, chunks, n);
+                // SAFETY: each chunk writes only its own range `r` of the three arrays, which
                 // are exclusively borrowed for this block and hold `n` elements each.
                 let (sep, mov, ahd) = unsafe {
                     (
@@ -3789,6 +3825,36 @@ mod tests {
         list.sort_unstable();
         list.dedup();
         list
+    }
+
+    #[test]
+    fn every_chunk_runs_once_whatever_the_team_and_the_chunks_cover_the_range() {
+        use std::sync::atomic::{AtomicUsize, Ordering};
+        let teams = [0, 1, 2, 4].map(nucleus_sdk::team::Team::new);
+        for team in &teams {
+            let team = TeamRef::new(team);
+            for (n, chunks) in [(1, 1), (7, 7), (513, 16), (100_003, 32)] {
+                let runs: Vec<AtomicUsize> = (0..chunks).map(|_| AtomicUsize::new(0)).collect();
+                let covered: Vec<AtomicUsize> = (0..n).map(|_| AtomicUsize::new(0)).collect();
+                let parts = team.parts();
+                claim_chunks(team, chunks, &|part, c| {
+                    assert!(part < parts, "a part index out of the team");
+                    runs[c].fetch_add(1, Ordering::Relaxed);
+                    for i in chunk_range(c, chunks, n) {
+                        covered[i].fetch_add(1, Ordering::Relaxed);
+                    }
+                });
+                let parts = team.parts();
+                assert!(
+                    runs.iter().all(|r| r.load(Ordering::Relaxed) == 1),
+                    "{parts} parts, {chunks} chunks"
+                );
+                assert!(
+                    covered.iter().all(|c| c.load(Ordering::Relaxed) == 1),
+                    "{parts} parts, n = {n}"
+                );
+            }
+        }
     }
 
     #[test]
