@@ -454,19 +454,13 @@ fn for_ranges(team: TeamRef<'_>, n: usize, f: &(dyn Fn(std::ops::Range<usize>) +
     team.for_ranges(n, PARALLEL_MIN_PARTICLES, f);
 }
 
-/// [`for_ranges`] over `0..items.len()`, each range with its own part of `items` to write.
+/// [`TeamRef::for_ranges_mut`] from [`PARALLEL_MIN_PARTICLES`] particles on.
 fn for_ranges_mut<T: Send>(
     team: TeamRef<'_>,
     items: &mut [T],
     f: &(dyn Fn(std::ops::Range<usize>, &mut [T]) + Sync),
 ) {
-    let n = items.len();
-    let shared = SharedArray::new(items);
-    for_ranges(team, n, &|r| {
-        // SAFETY: the ranges of `for_ranges` are disjoint and inside `0..n`, and `items` is
-        // exclusively borrowed for this call.
-        f(r.clone(), unsafe { shared.slice(r.start, r.len()) })
-    });
+    team.for_ranges_mut(items, PARALLEL_MIN_PARTICLES, f);
 }
 
 /// The most `project` calls one substep may make (iterations × the groups' importances). The

@@ -451,6 +451,23 @@ impl<'a> TeamRef<'a> {
         }
     }
 
+    /// [`for_ranges`](Self::for_ranges) over `0..items.len()`, each range given its own part
+    /// of `items` to write: `f(range, &mut items[range])`.
+    pub fn for_ranges_mut<T: Send>(
+        &self,
+        items: &mut [T],
+        min_split: usize,
+        f: &(dyn Fn(Range<usize>, &mut [T]) + Sync),
+    ) {
+        let n = items.len();
+        let shared = SharedArray::new(items);
+        self.for_ranges(n, min_split, &|r| {
+            // SAFETY: the ranges of `for_ranges` are disjoint and inside `0..n`, and `items` is
+            // exclusively borrowed for this call.
+            f(r.clone(), unsafe { shared.slice(r.start, r.len()) })
+        });
+    }
+
     /// Runs `job(part)` for every part `0..parts()` on the host's team and returns when all are
     /// done; one part, on this thread, without a team. A panic in any part is raised again
     /// here once every part is done.
@@ -573,6 +590,25 @@ mod tests {
         assert_eq!(claim(&state, job, MAX_PARTS, 0), None);
         got.sort_unstable();
         assert_eq!(got, (0..32).collect::<Vec<_>>());
+    }
+
+    #[test]
+    fn for_ranges_mut_hands_each_range_its_own_items_once() {
+        for helpers in [0, 1, 3] {
+            let team = Team::new(helpers);
+            let team = TeamRef::new(&team);
+            for (n, min_split) in [(0, 1), (7, 100), (10_001, 1)] {
+                let mut items = vec![0usize; n];
+                team.for_ranges_mut(&mut items, min_split, &|r, part| {
+                    assert_eq!(r.len(), part.len(), "a range and its items");
+                    for (i, item) in r.zip(part) {
+                        *item += i + 1;
+                    }
+                });
+                let expected: Vec<usize> = (1..=n).collect();
+                assert_eq!(items, expected, "{helpers} helpers, n = {n}");
+            }
+        }
     }
 
     #[test]

@@ -319,12 +319,7 @@ const PARALLEL_MIN_ITEMS: usize = 16384;
 /// [`PARALLEL_MIN_ITEMS`] on: each value is computed alone, so the array is the same on any
 /// number of threads.
 fn fill_over_team<T: Send>(team: TeamRef<'_>, out: &mut [T], f: impl Fn(usize) -> T + Sync) {
-    let n = out.len();
-    let shared = SharedArray::new(out);
-    team.for_ranges(n, PARALLEL_MIN_ITEMS, &|r| {
-        // SAFETY: the ranges of `for_ranges` are disjoint and inside `0..n`, and `out` is
-        // exclusively borrowed for this call.
-        let out = unsafe { shared.slice(r.start, r.len()) };
+    team.for_ranges_mut(out, PARALLEL_MIN_ITEMS, &|r, out| {
         for (o, i) in out.iter_mut().zip(r) {
             *o = f(i);
         }
@@ -1426,11 +1421,8 @@ impl CollisionGroup {
         self.stats.broad_phases += 1;
         for kind in 0..3 {
             let mut boxes = std::mem::take(self.boxes_and_flags(kind).0);
-            let (this, n, shared) = (&*self, boxes.len(), SharedArray::new(&mut boxes));
-            team.for_ranges(n, PARALLEL_MIN_ITEMS, &|r| {
-                // SAFETY: the ranges of `for_ranges` are disjoint and inside `boxes` (one box
-                // per primitive of the kind), exclusively borrowed here.
-                let boxes = unsafe { shared.slice(r.start, r.len()) };
+            let this = &*self;
+            team.for_ranges_mut(&mut boxes, PARALLEL_MIN_ITEMS, &|r, boxes| {
                 this.each_tight_box(kind, r, |j, tight, radius| {
                     boxes[j] = tight.grow(margin(radius));
                 });

@@ -130,15 +130,13 @@ impl BlockMatrix {
     /// `y = A x` (`y` holds [`n`](Self::n) rows), rows split over the team.
     pub fn mul(&self, team: TeamRef<'_>, x: &[DVec3], y: &mut [DVec3]) {
         assert!(y.len() >= self.n() && x.len() >= self.n());
-        let ys = SharedArray::new(y);
-        for_parts(team, self.n(), &|rows| {
-            for i in rows {
+        team.for_ranges_mut(&mut y[..self.n()], PARALLEL_MIN_ROWS, &|rows, ys| {
+            for (i, y) in rows.zip(ys) {
                 let mut sum = DVec3::ZERO;
                 for s in self.start[i] as usize..self.start[i + 1] as usize {
                     sum += self.val[s] * x[self.col[s] as usize];
                 }
-                // SAFETY: `i < n <= y.len()` (asserted) and each part writes its own rows.
-                unsafe { *ys.at(i) = sum };
+                *y = sum;
             }
         });
     }
