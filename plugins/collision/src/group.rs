@@ -332,12 +332,6 @@ fn fill_over_team<T: Send>(team: TeamRef<'_>, out: &mut [T], f: impl Fn(usize) -
 /// hand-off stays small against its work.
 const CHUNKS_PER_PART: usize = 8;
 
-/// The index range chunk `c` of `chunks` owns in `0..n`: contiguous, in order, covering `0..n`
-/// over the chunks ([`span`] for more pieces than a team has parts).
-fn chunk_range(c: usize, chunks: usize, n: usize) -> std::ops::Range<usize> {
-    c * n / chunks..(c + 1) * n / chunks
-}
-
 /// Runs `f(part, chunk)` for every chunk `0..chunks` on the team, each chunk once, claimed by
 /// the parts in turn as they come free (a part that finds its chunks cheap takes more), with
 /// the claiming part's index. Whoever runs a chunk, it must write only what the chunk owns:
@@ -2157,7 +2151,7 @@ impl CollisionGroup {
                 // its length (sharing them made two threads 1.2x slower than one).
                 let (mut hits, mut local) = (std::mem::take(out), std::mem::take(stack));
                 hits.clear();
-                query(this, chunk_range(c, chunks, n), &mut local, &mut hits);
+                query(this, span(c, chunks, n), &mut local, &mut hits);
                 (*out, *stack) = (hits, local);
             });
         }
@@ -2646,7 +2640,7 @@ impl CollisionGroup {
             );
             let chunks = (parts * CHUNKS_PER_PART).min(n);
             claim_chunks(team, chunks, &|_, c| {
-                let r = chunk_range(c, chunks, n);
+                let r = span(c, chunks, n);
                 // SAFETY: each chunk writes only its own range `r` of the three arrays, which
                 // are exclusively borrowed for this block and hold `n` elements each.
                 let (sep, mov, ahd) = unsafe {
@@ -3832,7 +3826,7 @@ mod tests {
                 claim_chunks(team, chunks, &|part, c| {
                     assert!(part < parts, "a part index out of the team");
                     runs[c].fetch_add(1, Ordering::Relaxed);
-                    for i in chunk_range(c, chunks, n) {
+                    for i in span(c, chunks, n) {
                         covered[i].fetch_add(1, Ordering::Relaxed);
                     }
                 });
