@@ -325,12 +325,9 @@ def pareto_tables(rows, Ns):
         out += [f"### N = {N}", "", "| solver | threads | substeps x iters | ms/frame | strain max | strain RMS | source |",
                 "|---|---:|---|---:|---:|---:|---|"]
         for (name, th), rs in groups.items():
-            best = float("inf")
-            for r in sorted(rs, key=lambda r: r["time_per_frame_s"]):
-                if r["strain_max"] < best:
-                    best = r["strain_max"]
-                    out.append(f"| {name} | {th} | {setting(r)} | {r['time_per_frame_s'] * 1e3:.3g} | "
-                               f"{fmt(r['strain_max'])} | {fmt(r['strain_rms'])} | {r.get('source', '')} |")
+            for r in front_plot.pareto(rs, "strain_max"):
+                out.append(f"| {name} | {th} | {setting(r)} | {r['time_per_frame_s'] * 1e3:.3g} | "
+                           f"{fmt(r['strain_max'])} | {fmt(r['strain_rms'])} | {r.get('source', '')} |")
         out.append("")
     return out
 
