@@ -21,7 +21,12 @@ and OUT_DIR/run.json, and prints one JSON line with the same fields as the peers
 * mean_height_15, mean_height_30: the particles' mean y after frames 15 and 30 (0.25 s and 0.5 s
   at 60 fps; null for a shorter run) — the motion, which strain alone does not see: a solver
   that holds the cloth up can have little strain. Plain `stretch` at 320 substeps gives about
-  -0.24 and -0.49 m at N = 32 to 128 (bench/motion.py compares whole runs).
+  -0.24 and -0.49 m at N = 32 to 128 (bench/motion.py compares whole runs);
+* energy_rise_j: from stats.csv's `kinetic_j` and `potential_j` (gravity and the springs), the
+  largest rise of their sum above the lowest value reached before, over frames 1..F (J; null if
+  the columns are missing). The drape has no damping and no source, so a rise is energy the
+  solver made: plain `stretch` rises by 0.01-0.08 J, an unconverged Newton setting by joules
+  (bench/motion.py prints the same figure).
 
 Rest lengths come from frame 0. `key=value` arguments are copied into the JSON line (numbers
 parsed). Pure Python; numpy is used when it is importable (about 20x faster at N = 128).
@@ -136,6 +141,25 @@ def wall_times(out_dir):
     return [float(r[wi]) for r in sorted(rows, key=lambda r: int(r[fi]))]
 
 
+def energy_rise(out_dir, frames):
+    """The largest rise of kinetic + potential energy above its lowest value so far (J), over
+    frames 1..`frames` of stats.csv; None without the energy columns or with a non-finite value."""
+    with open(os.path.join(out_dir, "stats.csv")) as f:
+        header = f.readline().strip().split(",")
+        if "kinetic_j" not in header or "potential_j" not in header:
+            return None
+        fi, ki, pi = header.index("frame"), header.index("kinetic_j"), header.index("potential_j")
+        rows = [line.strip().split(",") for line in f if line.strip()]
+    energy = [float(r[ki]) + float(r[pi]) for r in sorted(rows, key=lambda r: int(r[fi]))][:frames]
+    if not energy or not all(math.isfinite(e) for e in energy):
+        return None
+    lowest, rise = energy[0], 0.0
+    for e in energy:
+        lowest = min(lowest, e)
+        rise = max(rise, e - lowest)
+    return rise
+
+
 def metrics(out_dir, N, frames, window):
     run = {}
     run_json = os.path.join(out_dir, "run.json")
@@ -191,6 +215,7 @@ def metrics(out_dir, N, frames, window):
         "min_height": clean(min(last[1::3])),
         "mean_height_15": mean_height(15),
         "mean_height_30": mean_height(30),
+        "energy_rise_j": energy_rise(out_dir, frames),
         "exploded": (not finite) or max(abs(c) for c in last) > 100.0,
     }
 

@@ -8,7 +8,8 @@ of ours from its "Every run of ours" table, and the peers' Pareto points from it
 fronts" tables (the doc keeps only those of theirs). Draws two log-log panels, the RMS strain
 and the max strain (the structural edges, means over the last 60 frames, as the doc) against
 the mean step time per frame: one colour per solver and thread count, a dot per run, a line
-through its Pareto front (the runs no faster run beats on that strain), and the benchmark
+through its Pareto front (the runs no faster run beats on that strain; a run of ours whose
+motion fails `motion_flag`'s checks is a hollow dot, left off the front), and the benchmark
 issue's target as a shaded box (within `--budget-ms`, at most `--rms` RMS / `--max` max
 strain). `bench/peers.py` calls `plot` itself for every N it writes a doc for.
 """
@@ -24,7 +25,32 @@ import sys
 COLOURS = ["#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#000000", "#999999",
            "#8B4513"]
 PANEL_W, PANEL_H = 420, 320
+# Motion checks, since strain alone rewards a cloth held up (bench/motion.py). The drape's
+# particles' mean height after 0.5 s is -0.487 to -0.497 m for the converged solvers of ours at
+# N = 32 to 128 (plain `stretch` 320 x 2, `tether` 640 x 1, `stretch_newton` 2 x 3 x 5); higher
+# by more than HELD_UP_M is a cloth held up. The drape has no source of energy; a rise of more
+# than ENERGY_RISE_J (a fifth of the 4.9 J its fall of half a metre releases) is energy the
+# solver made.
+MEAN_HEIGHT_30_M = -0.49
+HELD_UP_M = 0.05
+ENERGY_RISE_J = 1.0
 LEFT, TOP, GAP = 70, 40, 90
+
+
+def motion_flag(r):
+    """What is wrong with a run's motion ("held up", "makes energy"), or "" if nothing we check
+    is: from its `flag` (a doc's motion column) or its `mean_height_30` and `energy_rise_j`.
+    The peers' rows carry neither figure and are never flagged."""
+    if "flag" in r:
+        return r["flag"]
+    flags = []
+    h = r.get("mean_height_30")
+    if h is not None and h > MEAN_HEIGHT_30_M + HELD_UP_M:
+        flags.append("held up")
+    e = r.get("energy_rise_j")
+    if e is not None and e > ENERGY_RISE_J:
+        flags.append("makes energy")
+    return ", ".join(flags)
 
 
 def parse_doc(path):
@@ -59,6 +85,8 @@ def parse_doc(path):
                 rows.append({"solver": solver, "N": N, "threads": int(th), "substeps": s, "iters": i,
                              "time_per_frame_s": float(ms) / 1e3, "strain_max": float(smax),
                              "strain_rms": float(srms)})
+                if section == "Every run of ours" and len(cells) >= 12:
+                    rows[-1]["flag"] = cells[11]  # the motion column (older docs have none)
             except ValueError:
                 continue  # an error row, or a cell that is not a number
     return rows
@@ -145,11 +173,14 @@ def plot(rows, N, budget_ms=16.0, rms=0.001, mx=0.01, title=None, peers_pareto_o
         for k in keys:
             c = colour[k]
             for r in groups[k]:
+                flag = motion_flag(r)
+                fill = f'fill="white" stroke="{c}"' if flag else f'fill="{c}" fill-opacity="0.45"'
                 out.append(f'<circle cx="{X(r["time_per_frame_s"] * 1e3):.1f}" cy="{Y(r[metric]):.1f}" r="2.5" '
-                           f'fill="{c}" fill-opacity="0.45"><title>{k[0]}, {k[1]} thread(s), '
+                           f'{fill}><title>{k[0]}, {k[1]} thread(s), '
                            f'{r["substeps"]} x {r["iters"]}: {r["time_per_frame_s"] * 1e3:.3g} ms, '
-                           f'{name} {r[metric] * 100:.3g} %</title></circle>')
-            front = pareto(groups[k], metric)
+                           f'{name} {r[metric] * 100:.3g} %{f" ({flag})" if flag else ""}</title></circle>')
+            # The front runs through the runs whose motion passes the checks (hollow dots: not).
+            front = pareto([r for r in groups[k] if not motion_flag(r)], metric)
             if len(front) < 2:
                 continue
             pts = " ".join(f'{X(r["time_per_frame_s"] * 1e3):.1f},{Y(r[metric]):.1f}' for r in front)

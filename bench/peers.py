@@ -5,7 +5,8 @@ Run it through `bench/peers.sh` (which builds the release host and plugins, and 
 peers' Python environment for `--live`); `bench/README.md` explains every option.
 
 * Ours: `target/release/nucleus run scenes/drape.toml` at every N, over a sweep of substeps x
-  iterations, for each scene variant (plain, with the `tether` kind, with `stretch_hierarchy`),
+  iterations, for each scene variant (plain, with the `tether` kind, with `stretch_hierarchy`, by
+  `stretch_newton`),
   on each thread count (RAYON_NUM_THREADS); the metrics are computed from the OBJ frames and stats.csv by `drape_metrics.py`, exactly as
   the peers' common.py does.
 * Theirs: the peers' recorded sweeps (PEERS/raw/*.jsonl, `--recorded`, the default) and/or
@@ -50,10 +51,21 @@ VARIANTS = {
     # The hierarchy once and the edges three times a substep (the `stretch` group's importance;
     # `--iterations` multiplies both): more fine passes per coarse one pay at RMS ~1 %.
     "hierarchy+edges3": HIERARCHY_BLOCK,
+    # Every edge a stiff spring solved globally (the `stretch_newton` kind): its own scene,
+    # below, and its own sweep (--newton-substeps x --newton-iterations, the Newton steps).
+    "newton": "",
+}
+# Variants that start from another scene than --scene (paths from the repository root).
+VARIANT_SCENES = {
+    "newton": os.path.join("scenes", "drape_newton.toml"),
 }
 # Scene settings a variant changes, as `nucleus run --set` arguments.
 VARIANT_SETS = {
     "hierarchy+edges3": ["constraints.0.importance=3"],
+    # 5 CG iterations a Newton step (the scene's), after 20 Gauss-Seidel passes a substep:
+    # the cheapest start measured to move the drape right (README, "Energy, and Gauss-Seidel
+    # passes to start the Newton steps").
+    "newton": ["constraints.0.params.start_passes=20"],
 }
 
 
@@ -80,6 +92,10 @@ def parse_args():
     p.add_argument("--variants", default="plain,tether,hierarchy",
                    help="our scene variants, comma-separated: " + ", ".join(VARIANTS)
                         + " (constraint kinds added to scenes/drape.toml)")
+    p.add_argument("--newton-substeps", default="1,2,3",
+                   help="the `newton` variant's sweep: substeps (it replaces --substeps there)")
+    p.add_argument("--newton-iterations", default="2,3,4",
+                   help="the `newton` variant's sweep: Newton steps a substep (replaces --iterations)")
     p.add_argument("--no-ours", action="store_true", help="skip our runs (peers only)")
     p.add_argument("--limit-s", type=float, default=60.0,
                    help="skip a run whose predicted wall time exceeds this (s), predicted from the "
@@ -106,6 +122,8 @@ def parse_args():
 
 
 def our_scene(a, variant):
+    if variant in VARIANT_SCENES:
+        return os.path.join(ROOT, VARIANT_SCENES[variant])
     if not VARIANTS[variant]:
         return a.scene
     os.makedirs(a.work, exist_ok=True)
@@ -164,8 +182,13 @@ def sweep(runner, subs, iters, limit_s, frames, label):
 def fmt_row(r):
     if "error" in r:
         return "error: " + r["error"]
+    flag = motion_flag(r)
     return (f"{r['time_per_frame_s'] * 1e3:.2f} ms/frame, strain max {fmt(r['strain_max'])}, "
-            f"RMS {fmt(r['strain_rms'])}" + (" EXPLODED" if r.get("exploded") else ""))
+            f"RMS {fmt(r['strain_rms'])}" + (" EXPLODED" if r.get("exploded") else "")
+            + (f" ({flag})" if flag else ""))
+
+
+motion_flag = front_plot.motion_flag
 
 
 # ---------------------------------------------------------------------------------------------
@@ -253,8 +276,11 @@ def solvers(rows, N):
 
 
 def least_time(rows, metric, thr):
+    """The fastest row within the bound, among those whose motion passes the checks if any
+    does (`motion_flag`); else the fastest flagged one (its cell says what is wrong)."""
     hits = [r for r in rows if r[metric] is not None and r[metric] <= thr]
-    return min(hits, key=lambda r: r["time_per_frame_s"]) if hits else None
+    right = [r for r in hits if not motion_flag(r)]
+    return min(right or hits, key=lambda r: r["time_per_frame_s"]) if hits else None
 
 
 def setting(r):
@@ -262,7 +288,10 @@ def setting(r):
 
 
 def cell(r):
-    return f"{r['time_per_frame_s'] * 1e3:.3g} ({setting(r)})" if r else "not reached"
+    if not r:
+        return "not reached"
+    flag = motion_flag(r)
+    return f"{r['time_per_frame_s'] * 1e3:.3g} ({setting(r)})" + (f" ({flag})" if flag else "")
 
 
 def best_of(rows, metric):
@@ -280,7 +309,9 @@ def matched_tables(rows, Ns, our_threads):
         out += [f"### N = {N}", "",
                 "Least mean time per frame (ms) over each solver's sweep at which its strain (structural "
                 "edges, last 60 frames) is at most the threshold, and the setting (substeps x iterations) "
-                "that achieves it; *no*: no setting of the sweep gets there (its best strain and setting are given).",
+                "that achieves it; *no*: no setting of the sweep gets there (its best strain and setting are given). "
+                f"A run of ours whose cloth is *held up* (mean height after 0.5 s above {front_plot.MEAN_HEIGHT_30_M + front_plot.HELD_UP_M:.2f} m) "
+                f"or that *makes energy* (a rise of more than {front_plot.ENERGY_RISE_J:g} J) is said so beside its time.",
                 "", head, "|---|---:|---|---|---|---|"]
         for (name, th), rs in groups.items():
             cells = []
@@ -322,27 +353,30 @@ def pareto_tables(rows, Ns):
         groups = solvers(rows, N)
         if not groups:
             continue
-        out += [f"### N = {N}", "", "| solver | threads | substeps x iters | ms/frame | strain max | strain RMS | source |",
-                "|---|---:|---|---:|---:|---:|---|"]
+        out += [f"### N = {N}", "", "| solver | threads | substeps x iters | ms/frame | strain max | strain RMS | source | motion |",
+                "|---|---:|---|---:|---:|---:|---|---|"]
         for (name, th), rs in groups.items():
             for r in front_plot.pareto(rs, "strain_max"):
                 out.append(f"| {name} | {th} | {setting(r)} | {r['time_per_frame_s'] * 1e3:.3g} | "
-                           f"{fmt(r['strain_max'])} | {fmt(r['strain_rms'])} | {r.get('source', '')} |")
+                           f"{fmt(r['strain_max'])} | {fmt(r['strain_rms'])} | {r.get('source', '')} | "
+                           f"{motion_flag(r)} |")
         out.append("")
     return out
 
 
 def full_table(rows):
-    out = ["| solver | N | threads | substeps x iters | ms/frame | strain max | strain RMS | max peak | min y |",
-           "|---|---:|---:|---|---:|---:|---:|---:|---:|"]
+    out = ["| solver | N | threads | substeps x iters | ms/frame | strain max | strain RMS | max peak | min y "
+           "| mean y at 0.5 s | energy rise (J) | motion |",
+           "|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---|"]
     for r in sorted(rows, key=lambda r: (r["N"], r["solver"], r.get("threads", 1), r["substeps"], r["iters"])):
         if "error" in r:
-            out.append(f"| {label(r)} | {r['N']} | {r.get('threads', 1)} | {setting(r)} | error: {r['error'][:80]} | | | | |")
+            out.append(f"| {label(r)} | {r['N']} | {r.get('threads', 1)} | {setting(r)} | error: {r['error'][:80]} | | | | | | | |")
         elif "time_per_frame_s" in r:
             out.append(f"| {label(r)} | {r['N']} | {r.get('threads', 1)} | {setting(r)} | "
                        f"{r['time_per_frame_s'] * 1e3:.3g} | {fmt(r['strain_max'])} | {fmt(r['strain_rms'])} | "
-                       f"{fmt(r.get('strain_max_peak'))} | {fmt(r.get('min_height'))} |"
-                       + (" exploded" if r.get("exploded") else ""))
+                       f"{fmt(r.get('strain_max_peak'))} | {fmt(r.get('min_height'))} | "
+                       f"{fmt(r.get('mean_height_30'))} | {fmt(r.get('energy_rise_j'))} | "
+                       + ("exploded" if r.get("exploded") else motion_flag(r)) + " |")
     return out
 
 
@@ -411,8 +445,10 @@ def main():
                     for variant in variants:
                         name = f"{our_name(variant)} N={N} threads={th}"
                         print(name, flush=True)
+                        subs, iters = ((a.newton_substeps, a.newton_iterations) if variant == "newton"
+                                       else (a.substeps, a.iterations))
                         for r in sweep(lambda s, i: run_ours(a, N, th, variant, s, i),
-                                       ints(a.substeps), ints(a.iterations), a.limit_s, a.frames, name):
+                                       ints(subs), ints(iters), a.limit_s, a.frames, name):
                             keep(r)
                 loads.append(load())
         if a.live:
@@ -462,7 +498,10 @@ def main():
         f"* Command: `{command}`",
         "* Scene: `scenes/drape.toml` (the peers' drape: 1 m cloth, N x N, two corners pinned, 120 frames at "
         "60 fps, no damping), hard stretch on every mesh edge (`nucleus`), plus the `tether` kind "
-        "(`nucleus+tether`) or the `stretch_hierarchy` kind with straight lengths (`nucleus+hierarchy`); "
+        "(`nucleus+tether`) or the `stretch_hierarchy` kind with straight lengths (`nucleus+hierarchy`; "
+        "`nucleus+hierarchy+edges3`: with the edges' importance 3); `nucleus+newton`: `scenes/drape_newton.toml`, "
+        "every edge a stiff spring (compliance 1e-8 m/N) solved by Newton steps (the iterations), each by 5 "
+        "multigrid-preconditioned CG iterations, after 20 Gauss-Seidel passes a substep; "
         "no bending. Peers: "
         + ("their recorded sweeps (`PEERS/raw/*.jsonl`, 1 thread unless noted; `recorded clean` rows were "
            "re-run with nothing else running)" if a.recorded else "")
