@@ -26,7 +26,9 @@ and OUT_DIR/run.json, and prints one JSON line with the same fields as the peers
   largest rise of their sum above the lowest value reached before, over frames 1..F (J; null if
   the columns are missing). The drape has no damping and no source, so a rise is energy the
   solver made: plain `stretch` rises by 0.01-0.08 J, an unconverged Newton setting by joules
-  (bench/motion.py prints the same figure).
+  (bench/motion.py prints the same figure); energy_end_j: that sum after frame F (J; it starts
+  at 0, the flat cloth at rest at y = 0). Below the reference's end it is energy damped out: the
+  `tether` run at 640 x 1 ends at -1.24 J at N = 128, implicit Euler at 2 substeps near -2.3 J.
 
 Rest lengths come from frame 0. `key=value` arguments are copied into the JSON line (numbers
 parsed). Pure Python; numpy is used when it is importable (about 20x faster at N = 128).
@@ -143,21 +145,22 @@ def wall_times(out_dir):
 
 def energy_rise(out_dir, frames):
     """The largest rise of kinetic + potential energy above its lowest value so far (J), over
-    frames 1..`frames` of stats.csv; None without the energy columns or with a non-finite value."""
+    frames 1..`frames` of stats.csv, and that energy after the last of them; (None, None)
+    without the energy columns or with a non-finite value."""
     with open(os.path.join(out_dir, "stats.csv")) as f:
         header = f.readline().strip().split(",")
         if "kinetic_j" not in header or "potential_j" not in header:
-            return None
+            return None, None
         fi, ki, pi = header.index("frame"), header.index("kinetic_j"), header.index("potential_j")
         rows = [line.strip().split(",") for line in f if line.strip()]
     energy = [float(r[ki]) + float(r[pi]) for r in sorted(rows, key=lambda r: int(r[fi]))][:frames]
     if not energy or not all(math.isfinite(e) for e in energy):
-        return None
+        return None, None
     lowest, rise = energy[0], 0.0
     for e in energy:
         lowest = min(lowest, e)
         rise = max(rise, e - lowest)
-    return rise
+    return rise, energy[-1]
 
 
 def metrics(out_dir, N, frames, window):
@@ -197,6 +200,7 @@ def metrics(out_dir, N, frames, window):
         return clean(sum(ys) / len(ys))
 
     steady = times[1:] if len(times) > 1 else times
+    rise, energy_end = energy_rise(out_dir, frames)
 
     def clean(v):
         return v if v is not None and math.isfinite(v) else None
@@ -215,7 +219,8 @@ def metrics(out_dir, N, frames, window):
         "min_height": clean(min(last[1::3])),
         "mean_height_15": mean_height(15),
         "mean_height_30": mean_height(30),
-        "energy_rise_j": energy_rise(out_dir, frames),
+        "energy_rise_j": rise,
+        "energy_end_j": energy_end,
         "exploded": (not finite) or max(abs(c) for c in last) > 100.0,
     }
 
