@@ -65,6 +65,14 @@
 //! 0.0024 %, against 85 ms, 0.30 % / 0.022 %); at N = 128 it costs 290–430 ms a frame
 //! (README, part 6), far beyond the 16 ms target.
 //!
+//! **Softer springs converge faster, and 1e-6 m/N is still hard** (2026-11-27; README, "Softer
+//! springs, cheaper Newton steps"). At the default 1e-8 the coarse space locks (below); at 1e-6
+//! a 1 kg drape stretches about 0.1 % at its pins, and on the 128 × 128 drape (2 threads) one
+//! substep of 3 Newton steps of 4 CG iterations after 10 start passes holds max 0.59 %, RMS
+//! 0.013 % in 63.7 ms a frame with the reference's fall (2 × 2 × 4 in 77–86 ms, damping the
+//! swing less), where 1e-8 needs 2 × 3 × 5 after 20 passes, 159 ms, to move right. Prefer the
+//! softest compliance whose strain the scene can take.
+//!
 //! **Cheap settings can give low strain and the wrong motion.** Without rotations, 5 CG
 //! iterations a step at 2 × 2 meet both strain bounds on the 128 × 128 drape in 42–49 ms (max
 //! 0.61 %, RMS 0.023 %) but the cloth barely falls (mean height −0.09 m after 0.5 s, against
