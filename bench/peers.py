@@ -64,10 +64,12 @@ VARIANT_SETS = {
     "hierarchy+edges3": ["constraints.0.importance=3"],
     # Springs of compliance 1e-6 m/N (the scene's 1e-8 lock its multigrid's coarse space:
     # README, "Softer springs, cheaper Newton steps"), 4 CG iterations a Newton step, after 10
-    # Gauss-Seidel passes a substep: at N = 128 the cheapest setting measured to hold both
-    # strain bounds and move the drape right.
+    # Gauss-Seidel passes a substep, the first coarse level translating only (half a V-cycle's
+    # work): at N = 128 the cheapest setting measured to hold both strain bounds and move the
+    # drape right.
     "newton": ["constraints.0.params.compliance=1e-6", "constraints.0.params.compression_compliance=1e-6",
-               "constraints.0.params.cg_iterations=4", "constraints.0.params.start_passes=10"],
+               "constraints.0.params.cg_iterations=4", "constraints.0.params.start_passes=10",
+               "constraints.0.params.plain_levels=1"],
 }
 
 
@@ -504,7 +506,8 @@ def main():
         "(`nucleus+tether`) or the `stretch_hierarchy` kind with straight lengths (`nucleus+hierarchy`; "
         "`nucleus+hierarchy+edges3`: with the edges' importance 3); `nucleus+newton`: `scenes/drape_newton.toml`, "
         "every edge a stiff spring (compliance 1e-6 m/N) solved by Newton steps (the iterations), each by 4 "
-        "multigrid-preconditioned CG iterations, after 10 Gauss-Seidel passes a substep; "
+        "multigrid-preconditioned CG iterations (the first coarse level translating only, `plain_levels = 1`), "
+        "after 10 Gauss-Seidel passes a substep; "
         "no bending. Peers: "
         + ("their recorded sweeps (`PEERS/raw/*.jsonl`, 1 thread unless noted; `recorded clean` rows were "
            "re-run with nothing else running)" if a.recorded else "")

@@ -6,7 +6,10 @@
 //! steps a substep it does only after `start_passes`), it makes no energy where a cheaper
 //! setting does, and one and two threads give the same
 //! bits — at N = 32, where every loop of the kind runs on one thread, and at N = 96, where the
-//! fine level's assembly, products and Gauss-Seidel colours are split over the team.
+//! fine level's assembly, products and Gauss-Seidel colours are split over the team. The peer
+//! sweep's cheaper setting (springs of compliance 1e-6, one substep of three steps) holds the
+//! bounds and the fall, and with its first coarse level translating only (`plain_levels = 1`)
+//! keeps at N = 128 the swing that a multigrid without turns loses.
 
 use glam::DVec3;
 use nucleus_core::Simulation;
@@ -241,12 +244,132 @@ fn start_passes_let_two_newton_steps_a_substep_move_the_drape() {
     assert!((half_k + 0.489).abs() < 0.03, "{half_k} m at 0.5 s");
 }
 
+/// The peer sweep's `newton` variant (`bench/peers.py`) at `n × n`: springs of compliance
+/// 1e-6 m/N, 1 substep of 3 Newton steps of 4 CG iterations after 10 start passes, with
+/// `params` (say `plain_levels = 1`) added to the kind's.
+fn drape_newton_soft(n: u32, params: &str) -> Simulation {
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../scenes/drape_newton.toml"
+    ))
+    .expect("scenes/drape_newton.toml");
+    let mut edited = text.clone();
+    for (line, with) in [
+        (
+            "params = { compliance = 1e-8, compression_compliance = 1e-8, cg_iterations = 5 }",
+            format!(
+                "params = {{ compliance = 1e-6, compression_compliance = 1e-6, cg_iterations = 4, \
+                 start_passes = 10, {params} }}"
+            ),
+        ),
+        ("substeps = 2\n", "substeps = 1\n".to_string()),
+        ("iterations = 4\n", "iterations = 3\n".to_string()),
+        ("resolution = [64, 64]", format!("resolution = [{n}, {n}]")),
+    ] {
+        assert!(
+            text.matches(line).count() == 1,
+            "the scene's `{line}` moved"
+        );
+        edited = edited.replace(line, &with);
+    }
+    simulation(&edited, &[])
+}
+
+#[test]
+fn softer_springs_and_a_plain_first_level_hold_the_bounds_and_move_the_drape() {
+    // The cheapest setting of the 2026-11-27 sweeps (README, "Softer springs, cheaper Newton
+    // steps"), with the first coarse level translating only (half a V-cycle's work). Measured
+    // at N = 32 over 120 frames (`bench/drape_metrics.py`, `bench/motion.py`): structural strain
+    // max 0.087 %, RMS 0.0076 % (means over the last 60 frames), mean height −0.247 / −0.497 m
+    // after 0.25 / 0.5 s, the energy rising by 0.11 J at most.
+    for plain_levels in [0, 1] {
+        let mut sim = drape_newton_soft(32, &format!("plain_levels = {plain_levels}"));
+        let edges = structural_edges(&sim, 32);
+        let (mut worst, mut worst_rms) = (0.0f64, 0.0f64);
+        let mut heights = Vec::new();
+        let (mut lowest, mut rise) = (f64::INFINITY, 0.0f64);
+        for f in 0..60 {
+            sim.step_frame()
+                .unwrap_or_else(|e| panic!("plain_levels {plain_levels}, frame {f}: {e}"));
+            let (max, rms) = strain(&sim, &edges);
+            if f >= 30 {
+                worst = worst.max(max);
+                worst_rms = worst_rms.max(rms);
+            }
+            heights.push(mean_height(&sim));
+            let residuals = sim.residuals().expect("residuals");
+            let elastic: f64 = residuals.iter().map(|r| r.energy).sum();
+            let energy = sim.kinetic_energy() + sim.gravity_energy() + elastic;
+            lowest = lowest.min(energy);
+            rise = rise.max(energy - lowest);
+        }
+        let (quarter, half) = (heights[14], heights[29]);
+        println!(
+            "drape_newton N = 32, compliance 1e-6, 1 x 3 x 4 CG, 10 start passes, plain_levels \
+             {plain_levels}: frames 31-60 max strain {:.4} %, RMS {:.5} % (worst frames); mean \
+             height {quarter:.3} / {half:.3} m at 0.25 / 0.5 s; energy rise {rise:.3} J",
+            100.0 * worst,
+            100.0 * worst_rms
+        );
+        assert!(
+            worst <= 0.01,
+            "plain_levels {plain_levels}: max strain {worst}"
+        );
+        assert!(
+            worst_rms <= 0.001,
+            "plain_levels {plain_levels}: RMS {worst_rms}"
+        );
+        // Within 3 cm of plain `stretch` at 320 substeps (−0.239 / −0.489 m).
+        assert!((quarter + 0.239).abs() < 0.03, "{quarter} m at 0.25 s");
+        assert!((half + 0.489).abs() < 0.03, "{half} m at 0.5 s");
+        assert!(
+            rise < 0.3,
+            "plain_levels {plain_levels}: the energy rose by {rise} J"
+        );
+    }
+}
+
+#[test]
+fn a_plain_first_level_keeps_the_swing_that_translations_alone_lose() {
+    // At N = 128 the cloth falls for half a second, then swings back up. Measured (2 threads,
+    // `bench/motion.py`), the particles' mean height after 1 s: −0.043 m for `tether` at 640 × 1;
+    // −0.226 m with every coarse level turning (one substep of implicit Euler damps the swing);
+    // −0.208 m with the first coarse level translating only (`plain_levels = 1`, half the work
+    // of a V-cycle); −0.408 m with no level turning (`rotations = false`), which also holds the
+    // cloth 4 cm up after 0.5 s: the truncated solves lose the swing without the turns.
+    let mut heights = Vec::new();
+    for params in ["plain_levels = 1", "rotations = false"] {
+        let mut sim = drape_newton_soft(128, params);
+        sim.threads = 2;
+        for f in 0..60 {
+            sim.step_frame()
+                .unwrap_or_else(|e| panic!("{params}, frame {f}: {e}"));
+        }
+        heights.push(mean_height(&sim));
+    }
+    println!(
+        "drape_newton N = 128, compliance 1e-6, 1 x 3 x 4 CG, 10 start passes: mean height after \
+         1 s {:.3} m (plain_levels = 1), {:.3} m (rotations = false)",
+        heights[0], heights[1]
+    );
+    assert!(
+        heights[0] > -0.30,
+        "plain_levels = 1: {} m after 1 s",
+        heights[0]
+    );
+    assert!(
+        heights[1] < -0.35,
+        "rotations = false: {} m after 1 s",
+        heights[1]
+    );
+}
+
 #[test]
 fn a_drape_large_enough_to_be_split_over_the_team_gives_the_same_bits_on_one_and_two_threads() {
     // 96 × 96: 9,214 unknowns, above the multigrid's PARALLEL_MIN_ROWS (2,048), so the
     // assembly, the two finest levels' products and Galerkin updates, and the fine level's
     // Gauss-Seidel colours are split over two parts; with start passes, their edge colours too.
-    for params in ["", "start_passes = 2, "] {
+    for params in ["", "start_passes = 2, ", "plain_levels = 1, "] {
         let (one, two) = (run(96, params, 2, 1).sim, run(96, params, 2, 2).sim);
         assert!(bits(&one) == bits(&two), "{params}: 1 and 2 threads differ");
         let start = drape_newton(96);

@@ -220,21 +220,23 @@ pub struct Prolongation {
 
 /// The prolongations of a [`crate::hierarchy::Coarsening`] of the fine particles, finest
 /// first: plain ([`Prolongation::from_coarsening`]) or, if `rigid`, carrying rotations
-/// ([`Prolongation::rigid`]). `position[f]` is where fine particle `f`'s position is found in
+/// ([`Prolongation::rigid`]) onto every coarse level past the first `plain_levels`, whose
+/// particles only translate (0: every coarse level turns). `position[f]` is where fine particle `f`'s position is found in
 /// the slice later given to [`Hierarchy::refit`] (the identity, or the group's particle
 /// indices, so the simulation's positions serve directly).
 pub fn prolongations(
     position: &[u32],
     coarsening: &crate::hierarchy::Coarsening,
     rigid: bool,
+    plain_levels: usize,
 ) -> Vec<Prolongation> {
     let mut fine_n = position.len();
     let mut out = Vec::new();
     // Where each level's particles' positions are (those of the fine particles they stand for).
     let mut origin = position.to_vec();
     for (level, (kept, dropped)) in coarsening.kept.iter().zip(&coarsening.dropped).enumerate() {
-        out.push(if rigid {
-            Prolongation::rigid(fine_n, level > 0, kept, dropped, &origin)
+        out.push(if rigid && level >= plain_levels {
+            Prolongation::rigid(fine_n, level > plain_levels, kept, dropped, &origin)
         } else {
             Prolongation::from_coarsening(fine_n, kept, dropped)
         });

@@ -172,14 +172,19 @@ fn grid(n: u32) -> (Graph, Vec<(u32, u32)>, Vec<DVec3>) {
 /// them with `rotations = false`.
 fn prolongations(graph: &Graph, coarsest: usize) -> Vec<Prolongation> {
     let identity: Vec<u32> = (0..graph.len() as u32).collect();
-    super::prolongations(&identity, &coarsen(graph, &[], 64, coarsest), false)
+    super::prolongations(&identity, &coarsen(graph, &[], 64, coarsest), false, 0)
 }
 
 /// The rigid prolongations of `graph`'s coarsening (`rotations = true`), lever arms fitted to
 /// the particles' positions `x`.
 fn rigid_prolongations(graph: &Graph, coarsest: usize, x: &[DVec3]) -> Vec<Prolongation> {
+    rigid_past(graph, coarsest, x, 0)
+}
+
+/// The same with the first `plain` coarse levels translating only (`plain_levels`).
+fn rigid_past(graph: &Graph, coarsest: usize, x: &[DVec3], plain: usize) -> Vec<Prolongation> {
     let identity: Vec<u32> = (0..graph.len() as u32).collect();
-    let mut ps = super::prolongations(&identity, &coarsen(graph, &[], 64, coarsest), true);
+    let mut ps = super::prolongations(&identity, &coarsen(graph, &[], 64, coarsest), true, plain);
     ps.iter_mut().for_each(|p| p.refit(x));
     ps
 }
@@ -482,6 +487,22 @@ fn coarse_operators_with_rotations_are_the_dense_galerkin_products() {
     let x = crumpled(&rest, &mut rng);
     let ps = rigid_prolongations(&graph, 4, &x);
     assert!(ps.iter().all(Prolongation::rotates));
+    galerkin_products_match(a, ps);
+}
+
+#[test]
+fn coarse_operators_with_a_plain_first_level_are_the_dense_galerkin_products() {
+    // `plain_levels = 1`: the first coarse level translates only, the ones past it turn.
+    let (graph, pairs, rest) = grid(17);
+    let mut rng = Rng(0x5eed_0001_2345_6789);
+    let a = random_spd(graph.len(), &pairs, &mut rng);
+    let x = crumpled(&rest, &mut rng);
+    let ps = rigid_past(&graph, 4, &x, 1);
+    assert!(ps.len() >= 3, "levels {}", ps.len() + 1);
+    assert!(!ps[0].rotates() && ps[1..].iter().all(Prolongation::rotates));
+    // Level 1 has one node per coarse particle (translations), level 2 two (and rotations).
+    assert_eq!(ps[1].fine(), ps[0].coarse);
+    assert_eq!(ps[1].coarse % 2, 0);
     galerkin_products_match(a, ps);
 }
 

@@ -167,6 +167,8 @@ pub struct NewtonParams {
     pub coarsest: i64,
     /// Whether coarse particles carry rotations as well as translations.
     pub rotations: bool,
+    /// With `rotations`, how many coarse levels, finest first, translate only.
+    pub plain_levels: i64,
     /// Gauss-Seidel (XPBD) passes over the same springs from the prediction at the start of
     /// each substep, before its first Newton step (0: none).
     pub start_passes: i64,
@@ -198,6 +200,9 @@ impl NewtonParams {
                 .range(2.0, 256.0),
             ParamSpec::boolean("rotations", true)
                 .doc("each coarse particle of the multigrid carries a rotation about its current position as well as a translation, so that the coarse levels move the folded cloth's pieces rigidly (false: translations only, linear interpolation over the rest mesh, which leaves a cloth held up unless CG converges)"),
+            ParamSpec::integer("plain_levels", 0)
+                .doc("with rotations, the number of coarse levels, finest first, whose particles translate only: 1 halves a V-cycle's work on cloth (the first coarse level, with rotations, has as many 3 x 3 blocks as the fine one) and the coarser levels still turn the folded cloth's pieces")
+                .range(0.0, 64.0),
             ParamSpec::integer("start_passes", 0)
                 .doc("Gauss-Seidel passes over the same springs (the stretch kind's XPBD pass, with this kind's two compliances) from the prediction at the start of each substep: a start for the Newton steps that has the edges' local strain taken off, so that fewer steps converge")
                 .range(0.0, 10000.0),
@@ -355,7 +360,8 @@ impl NewtonGroup {
         }
         let coarsest = p.coarsest.max(2) as usize;
         let c = crate::hierarchy::coarsen(&graph, &[], 64, coarsest);
-        let prolongations = crate::multigrid::prolongations(&dof, &c, p.rotations);
+        let prolongations =
+            crate::multigrid::prolongations(&dof, &c, p.rotations, p.plain_levels as usize);
         let n = dof.len();
         Ok(NewtonGroup {
             target: vec![DVec3::ZERO; n],

@@ -551,6 +551,7 @@ fn the_kind_describes_itself() {
             "cg_tolerance",
             "coarsest",
             "rotations",
+            "plain_levels",
             "start_passes"
         ]
     );
