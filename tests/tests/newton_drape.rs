@@ -35,19 +35,24 @@ fn drape_newton_setting(
     iterations: u32,
     cg: u32,
 ) -> Simulation {
+    edited_scene([
+        ("params = { ", format!("params = {{ {params}")),
+        ("substeps = 2\n", format!("substeps = {substeps}\n")),
+        ("iterations = 4\n", format!("iterations = {iterations}\n")),
+        ("cg_iterations = 5 }", format!("cg_iterations = {cg} }}")),
+        ("resolution = [64, 64]", format!("resolution = [{n}, {n}]")),
+    ])
+}
+
+/// `scenes/drape_newton.toml` with each `(line, with)` replaced (each line found once).
+fn edited_scene<const K: usize>(edits: [(&str, String); K]) -> Simulation {
     let text = std::fs::read_to_string(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/../scenes/drape_newton.toml"
     ))
     .expect("scenes/drape_newton.toml");
     let mut edited = text.clone();
-    for (line, with) in [
-        ("params = { ", format!("params = {{ {params}")),
-        ("substeps = 2\n", format!("substeps = {substeps}\n")),
-        ("iterations = 4\n", format!("iterations = {iterations}\n")),
-        ("cg_iterations = 5 }", format!("cg_iterations = {cg} }}")),
-        ("resolution = [64, 64]", format!("resolution = [{n}, {n}]")),
-    ] {
+    for (line, with) in edits {
         assert!(
             text.matches(line).count() == 1,
             "the scene's `{line}` moved"
@@ -248,13 +253,7 @@ fn start_passes_let_two_newton_steps_a_substep_move_the_drape() {
 /// 1e-6 m/N, 1 substep of 3 Newton steps of 4 CG iterations after 10 start passes, with
 /// `params` (say `plain_levels = 1`) added to the kind's.
 fn drape_newton_soft(n: u32, params: &str) -> Simulation {
-    let text = std::fs::read_to_string(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../scenes/drape_newton.toml"
-    ))
-    .expect("scenes/drape_newton.toml");
-    let mut edited = text.clone();
-    for (line, with) in [
+    edited_scene([
         (
             "params = { compliance = 1e-8, compression_compliance = 1e-8, cg_iterations = 5 }",
             format!(
@@ -265,14 +264,7 @@ fn drape_newton_soft(n: u32, params: &str) -> Simulation {
         ("substeps = 2\n", "substeps = 1\n".to_string()),
         ("iterations = 4\n", "iterations = 3\n".to_string()),
         ("resolution = [64, 64]", format!("resolution = [{n}, {n}]")),
-    ] {
-        assert!(
-            text.matches(line).count() == 1,
-            "the scene's `{line}` moved"
-        );
-        edited = edited.replace(line, &with);
-    }
-    simulation(&edited, &[])
+    ])
 }
 
 #[test]
