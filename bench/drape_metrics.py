@@ -143,24 +143,37 @@ def wall_times(out_dir):
     return [float(r[wi]) for r in sorted(rows, key=lambda r: int(r[fi]))]
 
 
+def energies(out_dir, frames=None):
+    """Kinetic + potential energy (J) after each of frames 1..`frames` (all if None), from
+    stats.csv's `kinetic_j` and `potential_j`; None without those columns."""
+    with open(os.path.join(out_dir, "stats.csv")) as f:
+        header = f.readline().strip().split(",")
+        if "kinetic_j" not in header or "potential_j" not in header:
+            return None
+        fi, ki, pi = header.index("frame"), header.index("kinetic_j"), header.index("potential_j")
+        rows = [line.strip().split(",") for line in f if line.strip()]
+    return [float(r[ki]) + float(r[pi]) for r in sorted(rows, key=lambda r: int(r[fi]))][:frames]
+
+
+def largest_rise(energy):
+    """The largest rise of `energy` above its lowest value so far, and the index where it is
+    reached (the first such); (0.0, 0) for a sequence that never rises."""
+    lowest, rise, at = energy[0], 0.0, 0
+    for k, e in enumerate(energy):
+        lowest = min(lowest, e)
+        if e - lowest > rise:
+            rise, at = e - lowest, k
+    return rise, at
+
+
 def energy_rise(out_dir, frames):
     """The largest rise of kinetic + potential energy above its lowest value so far (J), over
     frames 1..`frames` of stats.csv, and that energy after the last of them; (None, None)
     without the energy columns or with a non-finite value."""
-    with open(os.path.join(out_dir, "stats.csv")) as f:
-        header = f.readline().strip().split(",")
-        if "kinetic_j" not in header or "potential_j" not in header:
-            return None, None
-        fi, ki, pi = header.index("frame"), header.index("kinetic_j"), header.index("potential_j")
-        rows = [line.strip().split(",") for line in f if line.strip()]
-    energy = [float(r[ki]) + float(r[pi]) for r in sorted(rows, key=lambda r: int(r[fi]))][:frames]
+    energy = energies(out_dir, frames)
     if not energy or not all(math.isfinite(e) for e in energy):
         return None, None
-    lowest, rise = energy[0], 0.0
-    for e in energy:
-        lowest = min(lowest, e)
-        rise = max(rise, e - lowest)
-    return rise, energy[-1]
+    return largest_rise(energy)[0], energy[-1]
 
 
 def metrics(out_dir, N, frames, window):

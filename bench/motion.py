@@ -18,13 +18,12 @@ reached before (J). The drape has no damping and no energy source: a solver may 
 0.01–0.08 J, from rounding and the start; an unconverged Newton setting can rise by joules and
 throw the cloth up late in a run that looked right for 30 frames.
 """
-import csv
 import os
 import sys
 
 import numpy as np
 
-from drape_metrics import read_obj_vertices
+from drape_metrics import energies, largest_rise, read_obj_vertices
 
 
 def load(d):
@@ -35,11 +34,10 @@ def load(d):
 
 def energy(d):
     """Kinetic plus potential energy (J) after each frame, from `d`/stats.csv (None if absent)."""
-    path = os.path.join(d, "stats.csv")
-    if not os.path.exists(path):
+    if not os.path.exists(os.path.join(d, "stats.csv")):
         return None
-    with open(path) as f:
-        return np.array([float(r["kinetic_j"]) + float(r["potential_j"]) for r in csv.DictReader(f)])
+    e = energies(d)
+    return None if e is None else np.array(e)
 
 
 def main():
@@ -58,9 +56,8 @@ def main():
                 f"most, RMS distance {np.mean(dist):.3f} m (first 30 frames {np.mean(dist[:30]):.3f})")
     e = energy(sys.argv[1])
     if e is not None and len(e):
-        rise = e - np.minimum.accumulate(e)
-        msg += (f"; energy at the end {e[-1]:+.3f} J, largest rise {rise.max():.3f} J "
-                f"(frame {int(np.argmax(rise)) + 1})")
+        rise, at = largest_rise(list(e))
+        msg += f"; energy at the end {e[-1]:+.3f} J, largest rise {rise:.3f} J (frame {at + 1})"
     print(msg)
 
 
