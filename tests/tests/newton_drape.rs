@@ -200,6 +200,13 @@ fn without_rotations_five_cg_iterations_hold_the_drape_up() {
     );
 }
 
+/// Kinetic, gravity and the springs' stored energy (J).
+fn total_energy(sim: &mut Simulation) -> f64 {
+    let residuals = sim.residuals().expect("residuals");
+    let elastic: f64 = residuals.iter().map(|r| r.energy).sum();
+    sim.kinetic_energy() + sim.gravity_energy() + elastic
+}
+
 /// The largest rise of the total energy (kinetic, gravity and the springs' stored energy, J)
 /// above its lowest value before, over `frames` frames: the drape has no damping and no
 /// source, so a rise is energy the solver made (`bench/motion.py` prints the same from a run's
@@ -209,9 +216,7 @@ fn largest_energy_rise(mut sim: Simulation, frames: u32) -> f64 {
     for f in 0..frames {
         sim.step_frame()
             .unwrap_or_else(|e| panic!("frame {f}: {e}"));
-        let residuals = sim.residuals().expect("residuals");
-        let elastic: f64 = residuals.iter().map(|r| r.energy).sum();
-        let energy = sim.kinetic_energy() + sim.gravity_energy() + elastic;
+        let energy = total_energy(&mut sim);
         lowest = lowest.min(energy);
         rise = rise.max(energy - lowest);
     }
@@ -289,9 +294,7 @@ fn softer_springs_and_a_plain_first_level_hold_the_bounds_and_move_the_drape() {
                 worst_rms = worst_rms.max(rms);
             }
             heights.push(mean_height(&sim));
-            let residuals = sim.residuals().expect("residuals");
-            let elastic: f64 = residuals.iter().map(|r| r.energy).sum();
-            let energy = sim.kinetic_energy() + sim.gravity_energy() + elastic;
+            let energy = total_energy(&mut sim);
             lowest = lowest.min(energy);
             rise = rise.max(energy - lowest);
         }
