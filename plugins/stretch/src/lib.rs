@@ -235,6 +235,7 @@
 //!   only exactly satisfied in the limit of passes: raise the importance (or the substeps)
 //!   for cloth that must not stretch at all.
 
+mod block_lanes;
 pub mod chebyshev;
 pub mod distance;
 pub mod group;

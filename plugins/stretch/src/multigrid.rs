@@ -29,6 +29,8 @@
 //! products are sequential, so results are bit-identical whatever the thread count.
 
 use glam::{DMat3, DVec3};
+
+use crate::block_lanes::update_rows;
 use nucleus_sdk::team::{span, SharedArray, TeamRef};
 
 /// A range of rows (or of blocks of rows).
@@ -131,13 +133,7 @@ impl BlockMatrix {
     pub fn mul(&self, team: TeamRef<'_>, x: &[DVec3], y: &mut [DVec3]) {
         assert!(y.len() >= self.n() && x.len() >= self.n());
         team.for_ranges_mut(&mut y[..self.n()], PARALLEL_MIN_ROWS, &|rows, ys| {
-            for (i, y) in rows.zip(ys) {
-                let mut sum = DVec3::ZERO;
-                for s in self.start[i] as usize..self.start[i + 1] as usize {
-                    sum += self.val[s] * x[self.col[s] as usize];
-                }
-                *y = sum;
-            }
+            crate::block_lanes::row_products(self, x, rows, ys)
         });
     }
 
@@ -738,36 +734,20 @@ fn gauss_seidel(team: TeamRef<'_>, level: &mut Level, backward: bool) {
     // The row just swept (i − 1 forward, i + 1 backward) is the one term that waits for the
     // previous row's result: the slots are summed so that it comes last (columns in
     // decreasing order forward, increasing backward), which keeps the chain of dependent
-    // operations from one row to the next short.
-    let row = |i: usize| {
-        let mut sum = b[i];
-        let mut term = |s: usize| {
-            let j = a.col[s] as usize;
-            if j != i {
-                // SAFETY: `j < n <= x.len()` (asserted); row `j` is in this block (swept by
-                // this part) or in a block of another colour, which no part writes meanwhile.
-                sum -= a.val[s] * unsafe { *x.at(j) };
-            }
-        };
-        let slots = a.start[i] as usize..a.start[i + 1] as usize;
-        if backward {
-            slots.for_each(&mut term);
-        } else {
-            slots.rev().for_each(&mut term);
-        }
-        // SAFETY: `i < n`; its block is swept by this part alone.
-        unsafe { *x.at(i) = inv_diag[i] * sum };
-    };
+    // operations from one row to the next short (`block_lanes::update_rows`).
     // Backward, the blocks too are taken in reverse: the exact transpose of the forward sweep
     // even where a colour's blocks are not independent (the overflow colour).
     let sweep = |blocks: &[std::ops::Range<usize>]| {
+        let sweep_block = |rows: &std::ops::Range<usize>| {
+            // SAFETY: `x` has `a.n()` vectors (asserted); the rows of this block are swept by
+            // this part alone, and the rows they read are in this block or in blocks of
+            // another colour, which no part writes meanwhile.
+            unsafe { update_rows(a, inv_diag, b, x, rows.clone(), backward) }
+        };
         if backward {
-            blocks
-                .iter()
-                .rev()
-                .for_each(|rows| rows.clone().rev().for_each(row));
+            blocks.iter().rev().for_each(sweep_block);
         } else {
-            blocks.iter().for_each(|rows| rows.clone().for_each(row));
+            blocks.iter().for_each(sweep_block);
         }
     };
     let parts = team.parts();
