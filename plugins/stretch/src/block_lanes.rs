@@ -7,19 +7,32 @@
 //! of the scalar code, which is the fallback without AVX2.
 //!
 //! Why: the V-cycle's block Gauss-Seidel sweeps and the products of conjugate gradients are
-//! most of a `stretch_newton` step, and they are bound by the processor's arithmetic, not by
-//! memory (storing the smoother's blocks in single precision, half the bytes, was slower:
-//! 42 against 33 ms a frame on the 128 × 128 drape). A block's product is fifteen scalar
-//! multiplies and adds; in the lanes it is three multiplies and two adds. Measured on the
-//! 128 × 128 drape (1 × 3 × 4 CG, compliance 1e-6, `plain_levels = 1`, 10 start passes),
-//! runs of the old and new plugin alternating: about 7 % less time a frame on 2 threads (e.g.
-//! 32.9 → 30.7 ms) and 10–15 % on one, every frame's positions the same to the bit.
+//! most of a `stretch_newton` step. A block's product is fifteen scalar multiplies and adds;
+//! in the lanes it is three multiplies and two adds. Measured on the 128 × 128 drape (1 × 3 × 4
+//! CG, compliance 1e-6, `plain_levels = 1`, 10 start passes), runs of the old and new plugin
+//! alternating: about 7 % less time a frame on 2 threads (e.g. 32.9 → 30.7 ms) and 10–15 % on
+//! one, every frame's positions the same to the bit.
 //!
-//! Tried and not kept: the smoother's blocks in single precision (above; also looser, the
-//! last frame's max strain 0.56 % against 0.39 %); the Galerkin products' sums in the lanes
-//! (slower: the sums took 23 % of the samples against 12.6 %); sweeping two independent
-//! blocks of a colour interleaved, a row of each in turn, to overlap the row-to-row chains (no
-//! measurable change).
+//! **Asking for the blocks ahead.** A Gauss-Seidel row waits for the row before it (its last
+//! term), so the processor cannot run far ahead of the sweep to load the blocks it will need:
+//! the sweep waited on memory, not on arithmetic. Timed level by level (the same drape, 2
+//! threads), the forward sweep of a coarse level whose blocks had just been read in order took
+//! a quarter of its usual time (level 3: 33 against 124 ms over the run, the reading 22 ms),
+//! and the backward sweep of the fine level, 6.9 ms a frame, was slower than the forward one
+//! (4.9 ms). So each row asks for the blocks of the row [`PREFETCH_ROWS`] ahead in the sweep's
+//! order ([`prefetch`], a hint that changes no value): the fine level's two sweeps went from
+//! 4.9 + 6.9 to 1.8 + 2.1 ms a frame, and the whole frame from 32.4–37.2 to 26.4–29.2 ms on 2
+//! threads and from 78–85 to 53 ms on one (alternating runs). 2, 4, 8 and 16 rows ahead gave
+//! 30.7, 29.7, 28.3 (25.5 in a quieter run) and 25.3 ms. The matrix products, whose rows are
+//! independent, did not gain (slower with it: 1.4 against 1.1 ms a frame on the fine level),
+//! nor did the Galerkin products' gather of fine blocks.
+//!
+//! Tried and not kept: the smoother's blocks in single precision (half the bytes: slower in
+//! scalar code, 42 against 33 ms a frame, and looser, the last frame's max strain 0.56 %
+//! against 0.39 %); the Galerkin products' sums in the lanes (slower: the sums took 23 % of
+//! the samples against 12.6 %); sweeping two independent blocks of a colour interleaved, a row
+//! of each in turn, to overlap the row-to-row chains (no measurable change, before the
+//! prefetch).
 
 use glam::{DMat3, DVec3};
 use nucleus_sdk::lanes::avx2_available;
@@ -107,6 +120,7 @@ pub(crate) unsafe fn update_rows(
         return;
     }
     let row = |i: usize| {
+        prefetch_ahead(a, i, backward);
         // SAFETY: the caller's contract.
         unsafe { update_row_scalar(a, inv_diag[i], b[i], x, i, backward) }
     };
@@ -114,6 +128,42 @@ pub(crate) unsafe fn update_rows(
         rows.rev().for_each(row);
     } else {
         rows.for_each(row);
+    }
+}
+
+/// Asks the processor for the cache lines of `count` values from `p` on: a hint, which reads
+/// nothing, cannot fault, and does nothing on processors other than x86_64.
+#[inline(always)]
+fn prefetch<T>(p: *const T, count: usize) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        let first = p as *const i8;
+        for offset in (0..count * std::mem::size_of::<T>()).step_by(64) {
+            // SAFETY: SSE, which the intrinsic needs, is part of every x86_64 processor; a
+            // prefetch reads nothing and cannot fault, whatever the address.
+            unsafe { _mm_prefetch::<_MM_HINT_T0>(first.wrapping_add(offset)) };
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (p, count);
+}
+
+/// How many rows ahead a Gauss-Seidel sweep asks for a row's blocks.
+const PREFETCH_ROWS: usize = 8;
+
+/// Asks for the blocks of the row [`PREFETCH_ROWS`] after row `i` in a sweep's order (before
+/// it when `backward`), if there is one.
+#[inline(always)]
+fn prefetch_ahead(a: &BlockMatrix, i: usize, backward: bool) {
+    let ahead = if backward {
+        i.checked_sub(PREFETCH_ROWS)
+    } else {
+        Some(i + PREFETCH_ROWS).filter(|&k| k < a.n())
+    };
+    if let Some(k) = ahead {
+        let (from, to) = (a.start[k] as usize, a.start[k + 1] as usize);
+        prefetch(a.val.as_ptr().wrapping_add(from), to - from);
     }
 }
 
@@ -226,6 +276,7 @@ mod avx2 {
         backward: bool,
     ) {
         let row = |i: usize| {
+            super::prefetch_ahead(a, i, backward);
             let mut sum = lanes_of(b[i]);
             let mut term = |s: usize| {
                 let j = a.col[s] as usize;
