@@ -21,8 +21,9 @@
 //! * [`Pcg`] — conjugate gradients from zero with that preconditioner, at most a given number
 //!   of iterations.
 //!
-//! **Threads.** The products, the Gauss-Seidel sweeps, the Galerkin update and the diagonal
-//! inverses of levels with at least [`PARALLEL_MIN_ROWS`] block rows are split over the host's
+//! **Threads.** The products, the Gauss-Seidel sweeps, the restrictions ([`Restriction`]:
+//! `Pᵀ` by coarse rows), CG's vector updates, the Galerkin update and the diagonal inverses
+//! of levels with at least [`PARALLEL_MIN_ROWS`] block rows are split over the host's
 //! thread team. Each value is computed by one part, in an order that does not depend on the
 //! number of parts (the sweeps go colour by colour, the rows of a colour being independent;
 //! the Galerkin terms of a coarse block are summed by one part in a fixed order), and the dot
@@ -430,14 +431,67 @@ impl Prolongation {
     }
 }
 
+/// `Pᵀ` of a [`Prolongation`] by coarse rows: each coarse node's entries, `(fine row, entry)`
+/// in increasing order, so that [`apply`](Self::apply) sums each coarse node's terms in the
+/// order [`Prolongation::restrict`] adds them — the same bits — with the coarse nodes split
+/// over the team (the scatter of `restrict` runs on one thread).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Restriction {
+    /// `start[c]..start[c + 1]`: the entries of coarse node `c`.
+    start: Vec<u32>,
+    /// `(fine row, entry of the prolongation)`.
+    entries: Vec<(u32, u32)>,
+}
+
+impl Restriction {
+    /// The transpose of `p`'s pattern.
+    pub fn new(p: &Prolongation) -> Restriction {
+        let mut count = vec![0u32; p.coarse + 1];
+        for &c in &p.col {
+            count[c as usize + 1] += 1;
+        }
+        for c in 0..p.coarse {
+            count[c + 1] += count[c];
+        }
+        let start = count.clone();
+        let mut entries = vec![(0, 0); p.col.len()];
+        for i in 0..p.fine() {
+            for (k, c) in p.row(i) {
+                let at = &mut count[c as usize];
+                entries[*at as usize] = (i as u32, k as u32);
+                *at += 1;
+            }
+        }
+        Restriction { start, entries }
+    }
+
+    /// `coarse = Pᵀ fine` for the prolongation this was built from, coarse nodes split over
+    /// the team.
+    pub fn apply(&self, p: &Prolongation, team: TeamRef<'_>, fine: &[DVec3], coarse: &mut [DVec3]) {
+        assert!(coarse.len() >= p.coarse && self.start.len() == p.coarse + 1);
+        assert!(fine.len() >= p.fine());
+        team.for_ranges_mut(&mut coarse[..p.coarse], PARALLEL_MIN_ROWS, &|nodes, out| {
+            for (c, out) in nodes.zip(out) {
+                let mut sum = DVec3::ZERO;
+                let range = self.start[c] as usize..self.start[c + 1] as usize;
+                for &(i, k) in &self.entries[range] {
+                    sum += p.apply_transposed(k as usize, fine[i as usize]);
+                }
+                *out = sum;
+            }
+        });
+    }
+}
+
 /// One level of the hierarchy: its operator, its diagonal blocks' inverses, the
 /// interpolation from the next coarser level and the Galerkin map onto that level.
 #[derive(Clone, Debug, Default)]
 struct Level {
     a: BlockMatrix,
     inv_diag: Vec<DMat3>,
-    /// Interpolation from the next coarser level (none on the coarsest).
+    /// Interpolation from the next coarser level (none on the coarsest), and its transpose.
     p: Option<Prolongation>,
+    restriction: Restriction,
     /// Whether `p` has turns (rotations): its lever arms are refitted and the next level's
     /// diagonal regularised.
     rigid: bool,
@@ -519,6 +573,7 @@ impl Hierarchy {
                 a,
                 inv_diag: vec![DMat3::ZERO; n],
                 rigid: p.rotates(),
+                restriction: Restriction::new(&p),
                 p: Some(p),
                 galerkin,
                 mirror,
@@ -698,9 +753,12 @@ impl Hierarchy {
             level.x.iter_mut().for_each(|v| *v = DVec3::ZERO);
             gauss_seidel(team, level, false);
             level.a.mul(team, &level.x, &mut level.r);
-            for (r, b) in level.r.iter_mut().zip(&level.b) {
-                *r = *b - *r;
-            }
+            let b = &level.b;
+            team.for_ranges_mut(&mut level.r, PARALLEL_MIN_ROWS, &|rows, rs| {
+                for (r, b) in rs.iter_mut().zip(&b[rows]) {
+                    *r = *b - *r;
+                }
+            });
         }
         {
             let (fine, coarse) = self.levels.split_at_mut(l + 1);
@@ -708,7 +766,9 @@ impl Hierarchy {
                 .p
                 .as_ref()
                 .expect("a prolongation on every level but the last");
-            p.restrict(&fine[l].r, &mut coarse[0].b);
+            fine[l]
+                .restriction
+                .apply(p, team, &fine[l].r, &mut coarse[0].b);
         }
         self.cycle(team, l + 1);
         let (fine, coarse) = self.levels.split_at_mut(l + 1);
@@ -883,14 +943,18 @@ impl Pcg {
                 break;
             }
             let alpha = rz / pq;
-            for ((xi, pi), (ri, qi)) in x
-                .iter_mut()
-                .zip(&self.p)
-                .zip(self.r.iter_mut().zip(&self.q))
-            {
-                *xi += *pi * alpha;
-                *ri -= *qi * alpha;
-            }
+            let (p, q) = (&self.p, &self.q);
+            assert!(x.len() == p.len() && self.r.len() == p.len() && q.len() == p.len());
+            let (xs, rs) = (SharedArray::new(x), SharedArray::new(&mut self.r));
+            for_parts(team, p.len(), &|rows| {
+                for i in rows {
+                    // SAFETY: `i` is in bounds of all four (asserted); each part its own rows.
+                    unsafe {
+                        *xs.at(i) += p[i] * alpha;
+                        *rs.at(i) -= q[i] * alpha;
+                    }
+                }
+            });
             stats.iterations += 1;
             let rn = dot(&self.r, &self.r).sqrt();
             stats.reduction = rn / r0;
@@ -901,9 +965,12 @@ impl Pcg {
             let rz_new = dot(&self.r, &self.z);
             let beta = rz_new / rz;
             rz = rz_new;
-            for (pi, zi) in self.p.iter_mut().zip(&self.z) {
-                *pi = *zi + *pi * beta;
-            }
+            let z = &self.z;
+            team.for_ranges_mut(&mut self.p, PARALLEL_MIN_ROWS, &|rows, ps| {
+                for (pi, zi) in ps.iter_mut().zip(&z[rows]) {
+                    *pi = *zi + *pi * beta;
+                }
+            });
         }
         stats
     }

@@ -384,6 +384,32 @@ fn restriction_is_the_transpose(p: &Prolongation, rng: &mut Rng) {
         (lhs - rhs).abs() < 1e-13 * norm(&pc) * norm(&fv),
         "{lhs} vs {rhs}"
     );
+    // The transpose by coarse rows gives the scatter's bits.
+    let mut gathered = vec![DVec3::splat(f64::NAN); p.coarse];
+    Restriction::new(p).apply(p, serial(), &fv, &mut gathered);
+    assert_eq!(bits(&gathered), bits(&ptf));
+}
+
+#[test]
+fn restriction_by_coarse_rows_on_two_parts_has_the_bits_of_the_scatter() {
+    let (graph, _, rest) = grid(97);
+    let mut rng = Rng(31);
+    let x = crumpled(&rest, &mut rng);
+    let team = Team::new(1);
+    let team = TeamRef::new(&team);
+    for mut p in [
+        prolongations(&graph, 16),
+        rigid_prolongations(&graph, 16, &x),
+    ] {
+        let p = p.remove(0);
+        assert!(p.coarse >= PARALLEL_MIN_ROWS, "{} coarse nodes", p.coarse);
+        let fine = rng.vector(p.fine());
+        let mut scattered = vec![DVec3::ZERO; p.coarse];
+        p.restrict(&fine, &mut scattered);
+        let mut gathered = vec![DVec3::splat(f64::NAN); p.coarse];
+        Restriction::new(&p).apply(&p, team, &fine, &mut gathered);
+        assert_eq!(bits(&gathered), bits(&scattered), "rigid: {}", p.rotates());
+    }
 }
 
 #[test]
