@@ -31,7 +31,7 @@
 
 use glam::{DMat3, DVec3};
 
-use crate::block_lanes::update_rows;
+use crate::block_lanes::{update_rows, weighted_sum};
 use nucleus_sdk::team::{span, SharedArray, TeamRef};
 
 /// A range of rows (or of blocks of rows).
@@ -499,6 +499,9 @@ struct Level {
     /// `Σ Bᵢᵀ A[fine slot] Bⱼ` (the prolongation's entries) accumulated into each coarse slot
     /// of the upper triangle and the diagonal.
     galerkin: Vec<(u32, u32, u32, u32)>,
+    /// Per Galerkin term, the product of its two weights, when the prolongation only copies
+    /// (empty when it turns): the term is then the fine block times it.
+    copy_weights: Vec<f64>,
     /// `(lower slot, upper slot)` of the next coarser level: the lower triangle is the upper
     /// one transposed (the operator is symmetric), copied instead of summed — half the work.
     mirror: Vec<(u32, u32)>,
@@ -567,6 +570,14 @@ impl Hierarchy {
                     mirror.push((t as u32, upper as u32));
                 }
             }
+            let copy_weights = if p.rotates() {
+                Vec::new()
+            } else {
+                galerkin
+                    .iter()
+                    .map(|&(_, _, ki, kj)| p.weight[ki as usize] * p.weight[kj as usize])
+                    .collect()
+            };
             let n = a.n();
             let (blocks, colours) = a.block_colours(GAUSS_SEIDEL_BLOCK);
             levels.push(Level {
@@ -576,6 +587,7 @@ impl Hierarchy {
                 restriction: Restriction::new(&p),
                 p: Some(p),
                 galerkin,
+                copy_weights,
                 mirror,
                 blocks,
                 colours,
@@ -664,7 +676,7 @@ impl Hierarchy {
             });
             ok &= !bad.into_inner();
             if let Some(next) = coarse.first_mut() {
-                let g = &level.galerkin;
+                let (g, copy_weights) = (&level.galerkin, &level.copy_weights);
                 let p = level
                     .p
                     .as_ref()
@@ -679,15 +691,23 @@ impl Hierarchy {
                         }
                         k
                     };
-                    let terms = &g[edge(range.start)..edge(range.end)];
+                    let (first, end) = (edge(range.start), edge(range.end));
+                    let terms = &g[first..end];
+                    let mut at = first;
                     // Each coarse block is the sum of its run of terms, stored once.
                     for run in terms.chunk_by(|x, y| x.1 == y.1) {
                         let t = run[0].1 as usize;
                         assert!(t < coarse_len);
-                        let mut sum = DMat3::ZERO;
-                        for &(s, _, ki, kj) in run {
-                            sum += p.galerkin_term(ki as usize, a.val[s as usize], kj as usize);
-                        }
+                        let sum = if copy_weights.is_empty() {
+                            let mut sum = DMat3::ZERO;
+                            for &(s, _, ki, kj) in run {
+                                sum += p.galerkin_term(ki as usize, a.val[s as usize], kj as usize);
+                            }
+                            sum
+                        } else {
+                            weighted_sum(&a.val, run, &copy_weights[at..at + run.len()])
+                        };
+                        at += run.len();
                         // SAFETY: in bounds (asserted); the terms of one coarse block are
                         // consecutive in `g` and all go to the part whose range holds the
                         // first of them, so no two parts write one block.
