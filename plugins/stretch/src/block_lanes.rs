@@ -170,6 +170,31 @@ pub(crate) fn weighted_sum(
     sum
 }
 
+/// `Σₖ Bᵢᵀ val[s] Bⱼ` over the terms `(s, _, i, j)` of a coarse block of a Galerkin product
+/// whose prolongation turns: `B` a copy `w I` or a turn `w S(r)` (`weight`, `turn`, `arm` per
+/// prolongation entry, as in [`crate::multigrid::Prolongation`]), in the lanes — each block
+/// three column registers — with the bits of the scalar terms (`a * (wᵢ wⱼ)`, then
+/// `m S(rⱼ)` column by column as `m * (eₖ × rⱼ)`, then `rᵢ ×` each column, summed in order).
+/// `None` without AVX2: the caller sums the scalar terms.
+pub(crate) fn turning_sum(
+    val: &[DMat3],
+    terms: &[(u32, u32, u32, u32)],
+    weight: &[f64],
+    turn: &[bool],
+    arm: &[DVec3],
+) -> Option<DMat3> {
+    assert!(weight.len() == turn.len() && arm.len() == turn.len());
+    assert!(terms.iter().all(|t| {
+        (t.0 as usize) < val.len() && (t.2 as usize) < turn.len() && (t.3 as usize) < turn.len()
+    }));
+    #[cfg(target_arch = "x86_64")]
+    if avx2_available() {
+        // SAFETY: AVX2 is present; every index is in bounds (asserted).
+        return Some(unsafe { avx2::turning_sum(val, terms, weight, turn, arm) });
+    }
+    None
+}
+
 /// Asks the processor for the cache lines of `count` values from `p` on: a hint, which reads
 /// nothing, cannot fault, and does nothing on processors other than x86_64.
 #[inline(always)]
@@ -371,6 +396,78 @@ mod avx2 {
         }
         e[8] = last;
         DMat3::from_cols_array(&e)
+    }
+
+    /// [`super::turning_sum`] in the lanes.
+    ///
+    /// # Safety
+    /// AVX2 is present; every slot indexes `val` and every entry `weight`, `turn` and `arm`.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn turning_sum(
+        val: &[DMat3],
+        terms: &[(u32, u32, u32, u32)],
+        weight: &[f64],
+        turn: &[bool],
+        arm: &[DVec3],
+    ) -> DMat3 {
+        let mut sum = [_mm256_setzero_pd(); 3];
+        for &(s, _, i, j) in terms {
+            let (i, j) = (i as usize, j as usize);
+            let w = _mm256_set1_pd(weight[i] * weight[j]);
+            // SAFETY: the slot indexes `val` (the caller's contract); the loads stay within
+            // the block's nine doubles (the third column from one double before it, turned).
+            let [mut x, mut y, mut z] = unsafe {
+                let m = val.as_ptr().add(s as usize) as *const f64;
+                [
+                    _mm256_mul_pd(_mm256_loadu_pd(m), w),
+                    _mm256_mul_pd(_mm256_loadu_pd(m.add(3)), w),
+                    _mm256_mul_pd(
+                        _mm256_permute4x64_pd::<0b00_11_10_01>(_mm256_loadu_pd(m.add(5))),
+                        w,
+                    ),
+                ]
+            };
+            if turn[j] {
+                // Column k becomes m (eₖ × r), as glam's `m * v`: (x vₓ + y v_y) + z v_z.
+                let r = arm[j];
+                let column = |v: DVec3| {
+                    let t = _mm256_mul_pd(x, _mm256_set1_pd(v.x));
+                    let t = _mm256_add_pd(t, _mm256_mul_pd(y, _mm256_set1_pd(v.y)));
+                    _mm256_add_pd(t, _mm256_mul_pd(z, _mm256_set1_pd(v.z)))
+                };
+                [x, y, z] = [
+                    column(DVec3::new(0.0, -r.z, r.y)),
+                    column(DVec3::new(r.z, 0.0, -r.x)),
+                    column(DVec3::new(-r.y, r.x, 0.0)),
+                ];
+            }
+            if turn[i] {
+                // Each column c becomes r × c, as glam's `cross`: (r_y c_z − c_y r_z, …).
+                let r = arm[i];
+                let r_yzx = _mm256_setr_pd(r.y, r.z, r.x, 0.0);
+                let r_zxy = _mm256_setr_pd(r.z, r.x, r.y, 0.0);
+                let cross = |c: __m256d| {
+                    let c_zxy = _mm256_permute4x64_pd::<0b11_01_00_10>(c);
+                    let c_yzx = _mm256_permute4x64_pd::<0b11_00_10_01>(c);
+                    _mm256_sub_pd(_mm256_mul_pd(r_yzx, c_zxy), _mm256_mul_pd(c_yzx, r_zxy))
+                };
+                [x, y, z] = [cross(x), cross(y), cross(z)];
+            }
+            sum = [
+                _mm256_add_pd(sum[0], x),
+                _mm256_add_pd(sum[1], y),
+                _mm256_add_pd(sum[2], z),
+            ];
+        }
+        let mut e = [0.0; 12];
+        // SAFETY: `e` holds twelve doubles; the stores write 0..4, 3..7 and 6..10, each column
+        // after the one before (lane 3 of a column is overwritten by the next).
+        unsafe {
+            _mm256_storeu_pd(e.as_mut_ptr(), sum[0]);
+            _mm256_storeu_pd(e.as_mut_ptr().add(3), sum[1]);
+            _mm256_storeu_pd(e.as_mut_ptr().add(6), sum[2]);
+        }
+        DMat3::from_cols_slice(&e[..9])
     }
 }
 

@@ -31,7 +31,7 @@
 
 use glam::{DMat3, DVec3};
 
-use crate::block_lanes::{update_rows, weighted_sum};
+use crate::block_lanes::{turning_sum, update_rows, weighted_sum};
 use nucleus_sdk::team::{span, SharedArray, TeamRef};
 
 /// A range of rows (or of blocks of rows).
@@ -699,11 +699,16 @@ impl Hierarchy {
                         let t = run[0].1 as usize;
                         assert!(t < coarse_len);
                         let sum = if copy_weights.is_empty() {
-                            let mut sum = DMat3::ZERO;
-                            for &(s, _, ki, kj) in run {
-                                sum += p.galerkin_term(ki as usize, a.val[s as usize], kj as usize);
-                            }
-                            sum
+                            turning_sum(&a.val, run, &p.weight, &p.turn, &p.arm).unwrap_or_else(
+                                || {
+                                    let mut sum = DMat3::ZERO;
+                                    for &(s, _, ki, kj) in run {
+                                        let block = a.val[s as usize];
+                                        sum += p.galerkin_term(ki as usize, block, kj as usize);
+                                    }
+                                    sum
+                                },
+                            )
                         } else {
                             weighted_sum(&a.val, run, &copy_weights[at..at + run.len()])
                         };

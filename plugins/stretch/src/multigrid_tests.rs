@@ -994,3 +994,42 @@ fn same_bits_on_two_parts(mut one: Hierarchy) {
     assert_eq!(s1, s2);
     assert_eq!(bits(&y1), bits(&y2), "PCG");
 }
+
+#[test]
+fn turning_galerkin_sums_in_the_lanes_have_the_bits_of_the_scalar_terms() {
+    let (graph, _, rest) = grid(9);
+    let mut rng = Rng(808);
+    let x = crumpled(&rest, &mut rng);
+    let ps = rigid_past(&graph, 4, &x, 0);
+    // The second level turns on both sides: copies and turns on the fine and the coarse side.
+    for p in &ps {
+        assert!(p.rotates());
+        let entries = p.col.len();
+        let val: Vec<DMat3> = (0..40).map(|_| rng.mat3()).collect();
+        let terms: Vec<(u32, u32, u32, u32)> = (0..200u32)
+            .map(|k| {
+                (
+                    k % 40,
+                    0,
+                    (k * 7 + 3) % entries as u32,
+                    (k * 13 + 1) % entries as u32,
+                )
+            })
+            .collect();
+        assert!(terms
+            .iter()
+            .any(|t| p.turn[t.2 as usize] && p.turn[t.3 as usize]));
+        assert!(terms
+            .iter()
+            .any(|t| !p.turn[t.2 as usize] && !p.turn[t.3 as usize]));
+        let mut scalar = DMat3::ZERO;
+        for &(s, _, i, j) in &terms {
+            scalar += p.galerkin_term(i as usize, val[s as usize], j as usize);
+        }
+        let bits = |m: DMat3| m.to_cols_array().map(f64::to_bits);
+        match crate::block_lanes::turning_sum(&val, &terms, &p.weight, &p.turn, &p.arm) {
+            Some(lanes) => assert_eq!(bits(lanes), bits(scalar)),
+            None => eprintln!("no AVX2 here: the lanes were not exercised"),
+        }
+    }
+}
