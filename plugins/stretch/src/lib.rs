@@ -164,7 +164,9 @@
 //! 32.3 ms a frame on 2 threads and 59.0 against 76.1 ms on one (`docs/peers_newton.md`; runs
 //! of the two builds alternating: 7 % less on 2 threads, 10–15 % on one). Each Gauss-Seidel
 //! row also asks for the blocks of the row 8 ahead (`block_lanes`' docs): 24.0 ms on 2
-//! threads and 54.8 ms on one in the sweep at commit c63de95.
+//! threads and 54.8 ms on one in the sweep at commit c63de95; with the Galerkin sums in the
+//! lanes too, 26.3 and 43.9 ms at f0899bd (2-thread runs of the two alternating: the same
+//! time).
 
 //! ## Blocks: one edge at a time, or a particle's star at once
 //!
