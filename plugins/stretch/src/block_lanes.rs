@@ -157,10 +157,9 @@ pub(crate) fn weighted_sum(
     weights: &[f64],
 ) -> DMat3 {
     assert!(terms.len() == weights.len());
-    assert!(terms.iter().all(|t| (t.0 as usize) < val.len()));
     #[cfg(target_arch = "x86_64")]
     if avx2_available() {
-        // SAFETY: AVX2 is present; every slot is in `val` (asserted).
+        // SAFETY: AVX2 is present.
         return unsafe { avx2::weighted_sum(val, terms, weights) };
     }
     let mut sum = DMat3::ZERO;
@@ -184,12 +183,9 @@ pub(crate) fn turning_sum(
     arm: &[DVec3],
 ) -> Option<DMat3> {
     assert!(weight.len() == turn.len() && arm.len() == turn.len());
-    assert!(terms.iter().all(|t| {
-        (t.0 as usize) < val.len() && (t.2 as usize) < turn.len() && (t.3 as usize) < turn.len()
-    }));
     #[cfg(target_arch = "x86_64")]
     if avx2_available() {
-        // SAFETY: AVX2 is present; every index is in bounds (asserted).
+        // SAFETY: AVX2 is present.
         return Some(unsafe { avx2::turning_sum(val, terms, weight, turn, arm) });
     }
     None
@@ -240,49 +236,63 @@ mod avx2 {
 
     use crate::multigrid::{BlockMatrix, Rows};
 
+    /// The three columns of `m`, one a register (lanes 0..2; lane 3 is not meaningful).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn columns(m: &DMat3) -> [__m256d; 3] {
+        // A `DMat3` is nine `f64`, column after column (`repr(C)`).
+        let m = m as *const DMat3 as *const f64;
+        // SAFETY: every load is within the nine doubles of `m` (the third column is loaded
+        // from one double before it, then turned into place).
+        unsafe {
+            [
+                _mm256_loadu_pd(m),
+                _mm256_loadu_pd(m.add(3)),
+                _mm256_permute4x64_pd::<0b00_11_10_01>(_mm256_loadu_pd(m.add(5))),
+            ]
+        }
+    }
+
+    /// `(c₀ b₀ + c₁ b₁) + c₂ b₂`, lane by lane: [`DMat3::mul_vec3`]'s operations for the
+    /// columns `c` and a vector's coordinates broadcast in `b`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn combine(c: [__m256d; 3], b: [__m256d; 3]) -> __m256d {
+        let t = _mm256_mul_pd(c[0], b[0]);
+        let t = _mm256_add_pd(t, _mm256_mul_pd(c[1], b[1]));
+        _mm256_add_pd(t, _mm256_mul_pd(c[2], b[2]))
+    }
+
     /// `m v`, lanes 0..2 (lane 3 is not meaningful), with [`DMat3::mul_vec3`]'s operations.
     ///
     /// # Safety
-    /// `m` and `v` are valid to read; AVX2 is present.
+    /// `v` is valid to read; AVX2 is present.
     #[inline]
     #[target_feature(enable = "avx2")]
-    unsafe fn block_times(m: *const DMat3, v: *const DVec3) -> __m256d {
-        // A `DMat3` is nine `f64`, column after column, and a `DVec3` three (`repr(C)`).
-        let (m, v) = (m as *const f64, v as *const f64);
-        // SAFETY: every load is within the nine doubles of `m` (the third column is loaded
-        // from one double before it, then turned into place) or the three of `v`.
-        unsafe {
-            let c0 = _mm256_loadu_pd(m);
-            let c1 = _mm256_loadu_pd(m.add(3));
-            let c2 = _mm256_permute4x64_pd::<0b00_11_10_01>(_mm256_loadu_pd(m.add(5)));
-            let t = _mm256_mul_pd(c0, _mm256_broadcast_sd(&*v));
-            let t = _mm256_add_pd(t, _mm256_mul_pd(c1, _mm256_broadcast_sd(&*v.add(1))));
-            _mm256_add_pd(t, _mm256_mul_pd(c2, _mm256_broadcast_sd(&*v.add(2))))
-        }
+    unsafe fn block_times(m: &DMat3, v: *const DVec3) -> __m256d {
+        // A `DVec3` is three `f64` (`repr(C)`).
+        let v = v as *const f64;
+        // SAFETY: the three doubles of `v`.
+        let b = unsafe {
+            [
+                _mm256_broadcast_sd(&*v),
+                _mm256_broadcast_sd(&*v.add(1)),
+                _mm256_broadcast_sd(&*v.add(2)),
+            ]
+        };
+        combine(columns(m), b)
     }
 
     /// `m s` for `s` in lanes 0..2 of a register, as [`block_times`].
     #[inline]
     #[target_feature(enable = "avx2")]
     fn block_times_lanes(m: &DMat3, s: __m256d) -> __m256d {
-        let m = m as *const DMat3 as *const f64;
-        // SAFETY: as in `block_times`, within the nine doubles of `m`.
-        let (c0, c1, c2) = unsafe {
-            (
-                _mm256_loadu_pd(m),
-                _mm256_loadu_pd(m.add(3)),
-                _mm256_permute4x64_pd::<0b00_11_10_01>(_mm256_loadu_pd(m.add(5))),
-            )
-        };
-        let t = _mm256_mul_pd(c0, _mm256_permute4x64_pd::<0b00_00_00_00>(s));
-        let t = _mm256_add_pd(
-            t,
-            _mm256_mul_pd(c1, _mm256_permute4x64_pd::<0b01_01_01_01>(s)),
-        );
-        _mm256_add_pd(
-            t,
-            _mm256_mul_pd(c2, _mm256_permute4x64_pd::<0b10_10_10_10>(s)),
-        )
+        let b = [
+            _mm256_permute4x64_pd::<0b00_00_00_00>(s),
+            _mm256_permute4x64_pd::<0b01_01_01_01>(s),
+            _mm256_permute4x64_pd::<0b10_10_10_10>(s),
+        ];
+        combine(columns(m), b)
     }
 
     /// Lanes 0..2 of `v`, lane 3 zero.
@@ -369,7 +379,7 @@ mod avx2 {
     /// registers, entry 8 alone.
     ///
     /// # Safety
-    /// AVX2 is present; every `terms[k].0` indexes `val`.
+    /// AVX2 is present.
     #[target_feature(enable = "avx2")]
     pub(super) unsafe fn weighted_sum(
         val: &[DMat3],
@@ -378,8 +388,8 @@ mod avx2 {
     ) -> DMat3 {
         let (mut low, mut high, mut last) = (_mm256_setzero_pd(), _mm256_setzero_pd(), 0.0);
         for (t, &w) in terms.iter().zip(weights) {
-            // SAFETY: the slot is in `val` (the caller's contract); a block is nine doubles.
-            let e = unsafe { val.as_ptr().add(t.0 as usize) } as *const f64;
+            // A block is nine doubles, column after column (`repr(C)`).
+            let e = &val[t.0 as usize] as *const DMat3 as *const f64;
             let w4 = _mm256_set1_pd(w);
             // SAFETY: entries 0..3, 4..7 and 8 of the block.
             unsafe {
@@ -401,7 +411,7 @@ mod avx2 {
     /// [`super::turning_sum`] in the lanes.
     ///
     /// # Safety
-    /// AVX2 is present; every slot indexes `val` and every entry `weight`, `turn` and `arm`.
+    /// AVX2 is present.
     #[target_feature(enable = "avx2")]
     pub(super) unsafe fn turning_sum(
         val: &[DMat3],
@@ -414,27 +424,12 @@ mod avx2 {
         for &(s, _, i, j) in terms {
             let (i, j) = (i as usize, j as usize);
             let w = _mm256_set1_pd(weight[i] * weight[j]);
-            // SAFETY: the slot indexes `val` (the caller's contract); the loads stay within
-            // the block's nine doubles (the third column from one double before it, turned).
-            let [mut x, mut y, mut z] = unsafe {
-                let m = val.as_ptr().add(s as usize) as *const f64;
-                [
-                    _mm256_mul_pd(_mm256_loadu_pd(m), w),
-                    _mm256_mul_pd(_mm256_loadu_pd(m.add(3)), w),
-                    _mm256_mul_pd(
-                        _mm256_permute4x64_pd::<0b00_11_10_01>(_mm256_loadu_pd(m.add(5))),
-                        w,
-                    ),
-                ]
-            };
+            let [mut x, mut y, mut z] = columns(&val[s as usize]).map(|c| _mm256_mul_pd(c, w));
             if turn[j] {
                 // Column k becomes m (eₖ × r), as glam's `m * v`: (x vₓ + y v_y) + z v_z.
                 let r = arm[j];
-                let column = |v: DVec3| {
-                    let t = _mm256_mul_pd(x, _mm256_set1_pd(v.x));
-                    let t = _mm256_add_pd(t, _mm256_mul_pd(y, _mm256_set1_pd(v.y)));
-                    _mm256_add_pd(t, _mm256_mul_pd(z, _mm256_set1_pd(v.z)))
-                };
+                let column =
+                    |v: DVec3| combine([x, y, z], [v.x, v.y, v.z].map(|c| _mm256_set1_pd(c)));
                 [x, y, z] = [
                     column(DVec3::new(0.0, -r.z, r.y)),
                     column(DVec3::new(r.z, 0.0, -r.x)),

@@ -698,7 +698,7 @@ impl Hierarchy {
                     for run in terms.chunk_by(|x, y| x.1 == y.1) {
                         let t = run[0].1 as usize;
                         assert!(t < coarse_len);
-                        let sum = if copy_weights.is_empty() {
+                        let sum = if level.rigid {
                             turning_sum(&a.val, run, &p.weight, &p.turn, &p.arm).unwrap_or_else(
                                 || {
                                     let mut sum = DMat3::ZERO;
