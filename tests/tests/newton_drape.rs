@@ -223,16 +223,37 @@ fn largest_energy_rise(mut sim: Simulation, frames: u32) -> f64 {
     rise
 }
 
+/// `scenes/drape_newton.toml` at `n × n` vertices, `substeps` × `iterations` Newton steps of
+/// 5 CG iterations a frame, under gravity `g` (m/s²) instead of 9.81.
+fn drape_newton_under(n: u32, substeps: u32, iterations: u32, g: &str) -> Simulation {
+    edited_scene([
+        ("substeps = 2\n", format!("substeps = {substeps}\n")),
+        ("iterations = 4\n", format!("iterations = {iterations}\n")),
+        ("resolution = [64, 64]", format!("resolution = [{n}, {n}]")),
+        (
+            "gravity = [0.0, -9.81, 0.0]",
+            format!("gravity = [0.0, -{g}, 0.0]"),
+        ),
+    ])
+}
+
 #[test]
-fn the_scene_makes_no_energy_where_three_cg_iterations_a_step_do() {
-    // Measured at N = 32 over 120 frames (`bench/motion.py`): the scene's 2 × 4 × 5 CG rises by
-    // 0.053 J at most, 1 × 8 × 3 CG by 0.52 J (frame 115; at N = 128 the same setting rises by
-    // 1.56 J); plain `stretch` at 320 × 2, whose passes are converged far better, by 0.16 J.
-    let scene = largest_energy_rise(drape_newton(32), 120);
-    let cheap = largest_energy_rise(drape_newton_setting(32, "", 1, 8, 3), 120);
-    println!("drape_newton N = 32, 120 frames: largest energy rise {scene:.3} J (the scene), {cheap:.3} J (1 x 8 x 3 CG)");
-    assert!(scene < 0.1, "the scene made {scene} J");
-    assert!(cheap > 0.3, "1 x 8 x 3 CG made only {cheap} J");
+fn the_scene_makes_under_a_joule_whatever_the_rounding_where_two_steps_a_substep_make_more() {
+    // How much energy an unconverged setting makes is chaotic: gravity changed by 1e-8 of
+    // itself, which only moves the rounding, moved the scene's largest rise over 120 frames at
+    // N = 32 between 0.000 and 0.447 J (10 runs, two builds that differ by rounding), and
+    // 1 × 8 × 3 CG's between 0.000 and 0.518 J: one run cannot rank two such settings. What
+    // holds is the bound: the scene stays under 1 J (the benchmark's "makes energy" mark,
+    // `bench/front_plot.py`), where two Newton steps a substep make 2.6–2.8 J whatever the
+    // rounding.
+    for g in ["9.81", "9.8100001", "9.8099999"] {
+        let rise = largest_energy_rise(drape_newton_under(32, 2, 4, g), 120);
+        println!("drape_newton N = 32, 2 x 4 x 5, g = {g}: largest energy rise {rise:.3} J");
+        assert!(rise < 1.0, "g = {g}: the scene made {rise} J");
+    }
+    let two = largest_energy_rise(drape_newton_under(32, 2, 2, "9.81"), 120);
+    println!("drape_newton N = 32, 2 x 2 x 5: largest energy rise {two:.3} J");
+    assert!(two > 2.0, "2 x 2 x 5 made only {two} J");
 }
 
 #[test]

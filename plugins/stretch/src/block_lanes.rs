@@ -82,6 +82,39 @@ pub(crate) fn row_products(a: &BlockMatrix, x: &[DVec3], rows: Rows, y: &mut [DV
     }
 }
 
+/// `y[k] = −Σ A[i, j] x[j]` over the slots `later[later_start[i]..later_start[i + 1]]` of each
+/// row `i` of `rows` (`y[k]` for the `k`-th of them), subtracted in order from zero: after a
+/// forward Gauss-Seidel sweep from `x = 0`, the residual `b − A x` of each row, when `later`
+/// lists the slots whose columns the sweep visits after the row ([`crate::multigrid`]'s
+/// `later_slots`).
+pub(crate) fn later_residuals(
+    a: &BlockMatrix,
+    later_start: &[u32],
+    later: &[u32],
+    x: &[DVec3],
+    rows: Rows,
+    y: &mut [DVec3],
+) {
+    assert!(x.len() >= a.n() && rows.end < later_start.len() && y.len() >= rows.len());
+    assert!(later_start
+        .last()
+        .is_some_and(|&n| n as usize <= later.len()));
+    assert!(later.iter().all(|&s| (s as usize) < a.val.len()));
+    #[cfg(target_arch = "x86_64")]
+    if avx2_available() {
+        // SAFETY: AVX2 is present; the lengths and slots are checked above.
+        unsafe { avx2::later_residuals(a, later_start, later, x, rows, y) };
+        return;
+    }
+    for (i, y) in rows.zip(y) {
+        let mut sum = DVec3::ZERO;
+        for &s in &later[later_start[i] as usize..later_start[i + 1] as usize] {
+            sum -= a.val[s as usize] * x[a.col[s as usize] as usize];
+        }
+        *y = sum;
+    }
+}
+
 /// One Gauss-Seidel update of row `i`: `x[i] = D⁻¹ (b[i] − Σ_{j ≠ i} A[i, j] x[j])`, the
 /// slots taken in decreasing column order (`backward == false`) or increasing.
 ///
@@ -330,6 +363,34 @@ mod avx2 {
                 let j = a.col[s] as usize;
                 // SAFETY: `s` is a slot and `j < a.n() <= x.len()` a column of the matrix.
                 sum = _mm256_add_pd(sum, unsafe { block_times(&a.val[s], &x[j]) });
+            }
+            // SAFETY: `y` is a valid vector.
+            unsafe { store(y, sum) };
+        }
+    }
+
+    /// [`super::later_residuals`] in the lanes.
+    ///
+    /// # Safety
+    /// AVX2 is present; the lengths and slots checked by [`super::later_residuals`].
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn later_residuals(
+        a: &BlockMatrix,
+        later_start: &[u32],
+        later: &[u32],
+        x: &[DVec3],
+        rows: Rows,
+        y: &mut [DVec3],
+    ) {
+        for (i, y) in rows.zip(y) {
+            let mut sum = _mm256_setzero_pd();
+            for &s in &later[later_start[i] as usize..later_start[i + 1] as usize] {
+                let s = s as usize;
+                // SAFETY: `s` is a slot (checked by the caller) and its column is `< a.n() <=
+                // x.len()`.
+                sum = _mm256_sub_pd(sum, unsafe {
+                    block_times(&a.val[s], &x[a.col[s] as usize])
+                });
             }
             // SAFETY: `y` is a valid vector.
             unsafe { store(y, sum) };

@@ -1033,3 +1033,74 @@ fn turning_galerkin_sums_in_the_lanes_have_the_bits_of_the_scalar_terms() {
         }
     }
 }
+
+/// After a forward sweep from zero on each level but the coarsest, the residual from the
+/// later columns ([`later_residuals`]) against `b − A x` by a full product: the largest
+/// difference relative to the larger of `|b|` and the residual's norm.
+fn sweep_residual_error(h: &mut Hierarchy, rng: &mut Rng) -> f64 {
+    let mut worst: f64 = 0.0;
+    let depth = h.levels.len();
+    for level in &mut h.levels[..depth - 1] {
+        let n = level.a.n();
+        level.b = rng.vector(n);
+        level.x.iter_mut().for_each(|v| *v = DVec3::ZERO);
+        gauss_seidel(serial(), level, false);
+        let mut ax = vec![DVec3::ZERO; n];
+        level.a.mul(serial(), &level.x, &mut ax);
+        let mut from_sweep = vec![DVec3::ZERO; n];
+        later_residuals(
+            &level.a,
+            &level.later_start,
+            &level.later,
+            &level.x,
+            0..n,
+            &mut from_sweep,
+        );
+        let r = norm(&from_sweep);
+        let scale = norm(&level.b).max(r);
+        for i in 0..n {
+            let full = level.b[i] - ax[i];
+            worst = worst.max((full - from_sweep[i]).length() / scale);
+        }
+        // Not the trivial case: the sweep left a residual.
+        assert!(r > 1e-3 * scale, "residual {r:e} against {scale:e}");
+    }
+    worst
+}
+
+#[test]
+fn the_residual_from_the_forward_sweep_is_b_minus_a_x() {
+    let mut rng = Rng(5);
+    for (what, mut h) in [
+        ("cloth", cloth_hessian(33, false, false)),
+        ("folded cloth, rotations", cloth_hessian(33, true, true)),
+    ] {
+        assert!(h.update(serial()));
+        assert!(h.depth() >= 3, "{what}: {:?}", h.sizes());
+        let error = sweep_residual_error(&mut h, &mut rng);
+        println!("{what}: residual from the sweep, largest difference {error:e}");
+        assert!(error < 1e-12, "{what}: {error:e}");
+    }
+    // Blocks that overflow the colours (swept in sequence), as in the test above.
+    let size = GAUSS_SEIDEL_BLOCK;
+    let count = 70u32;
+    let n = count as usize * size;
+    let pairs: Vec<(u32, u32)> = (0..count)
+        .flat_map(|p| (p + 1..count).map(move |q| (p * size as u32, q * size as u32 + 1)))
+        .collect();
+    let a = random_spd(n, &pairs, &mut rng);
+    let p = Prolongation {
+        coarse: 2,
+        start: (0..=n as u32).collect(),
+        col: (0..n as u32).map(|i| i % 2).collect(),
+        weight: vec![1.0; n],
+        turn: vec![false; n],
+        arm: vec![DVec3::ZERO; n],
+        origin: vec![[u32::MAX; 2]; n],
+    };
+    let mut h = Hierarchy::new(a, vec![p]);
+    assert!(h.update(serial()));
+    let error = sweep_residual_error(&mut h, &mut rng);
+    println!("overflowing colours: residual from the sweep, largest difference {error:e}");
+    assert!(error < 1e-12, "overflowing colours: {error:e}");
+}

@@ -148,7 +148,7 @@ use serde::Deserialize;
 
 use crate::distance::{EdgeMaterial, MIN_LENGTH};
 use crate::group::{edge_residual, Edges, StretchGroup, StretchParams};
-use crate::multigrid::{for_parts, BlockMatrix, CgStats, Hierarchy, Pcg, PARALLEL_MIN_ROWS};
+use crate::multigrid::{BlockMatrix, CgStats, Hierarchy, Pcg, PARALLEL_MIN_ROWS};
 use glam::DMat3;
 use nucleus_sdk::team::{span, SharedArray, TeamRef};
 
@@ -469,27 +469,54 @@ impl NewtonGroup {
 
     /// Assembles `∇Φ` (into `gradient`) and `H` (into the hierarchy's fine matrix): each
     /// edge's force and stiffness, then each unknown's row from its incident edges, both
-    /// split over the team (every value computed by one part, in a fixed order).
-    fn assemble(&mut self, team: TeamRef<'_>, x: &[DVec3], inv_mass: &[f64], h: f64) {
+    /// split over the team by chunks of [`CHUNK`] edges or unknowns (every value computed by
+    /// one part, in a fixed order). Returns `Φ` at `x`, summed as [`objective`](Self::objective)
+    /// sums it at `t = 0` — the same bits for a finite step — from the chunks' sums, which
+    /// the same loops take on the way.
+    fn assemble(&mut self, team: TeamRef<'_>, x: &[DVec3], inv_mass: &[f64], h: f64) -> f64 {
         let (ks, kc) = (self.k_stretch, self.k_compress);
         let (edges, rest) = (&self.edges, &self.rest);
+        let inertia_chunks = self.dof.len().div_ceil(CHUNK);
+        let chunks = inertia_chunks + edges.len().div_ceil(CHUNK);
         assert!(self.edge_force.len() == edges.len() && self.edge_stiffness.len() == edges.len());
+        assert!(self.partial.len() >= chunks);
         let forces = SharedArray::new(&mut self.edge_force);
         let stiffness = SharedArray::new(&mut self.edge_stiffness);
-        for_parts(team, edges.len(), &|range| {
-            for e in range {
-                let [i, j] = edges[e];
-                let (f, k) = spring(x[j as usize] - x[i as usize], rest[e], ks, kc)
-                    .map_or((DVec3::ZERO, DMat3::ZERO), |(_, f, k)| (f, k));
-                // SAFETY: `e < edges.len()`, the length of both arrays (asserted); each part
-                // writes its own edges.
-                unsafe {
-                    *forces.at(e) = f;
-                    *stiffness.at(e) = k;
+        let sums = SharedArray::new(&mut self.partial);
+        // Split from `PARALLEL_MIN_ROWS` edges or unknowns on, as the multigrid's loops.
+        let split = |items: usize| {
+            if items >= PARALLEL_MIN_ROWS {
+                1
+            } else {
+                usize::MAX
+            }
+        };
+        team.for_ranges(chunks - inertia_chunks, split(edges.len()), &|range| {
+            for c in range {
+                let mut energy = 0.0;
+                for e in c * CHUNK..((c + 1) * CHUNK).min(edges.len()) {
+                    let [i, j] = edges[e];
+                    let d = x[j as usize] - x[i as usize];
+                    let (f, k) = spring(d, rest[e], ks, kc)
+                        .map_or((DVec3::ZERO, DMat3::ZERO), |(_, f, k)| (f, k));
+                    // `objective`'s energy, whatever the edge's length.
+                    let stretch = d.length() - rest[e];
+                    let k_energy = if stretch >= 0.0 { ks } else { kc };
+                    energy += 0.5 * k_energy * stretch * stretch;
+                    // SAFETY: `e < edges.len()`, the length of both arrays (asserted); each
+                    // part writes its own edges.
+                    unsafe {
+                        *forces.at(e) = f;
+                        *stiffness.at(e) = k;
+                    }
                 }
+                // SAFETY: `inertia_chunks + c < chunks <= partial.len()` (asserted); each
+                // chunk is one part's.
+                unsafe { *sums.at(inertia_chunks + c) = energy };
             }
         });
         let inv_h2 = 1.0 / (h * h);
+        let scale = 1.0 / (2.0 * h * h);
         let (forces, stiffness) = (&self.edge_force, &self.edge_stiffness);
         let (dof, target) = (&self.dof, &self.target);
         let (start, incident) = (&self.incident_start, &self.incident);
@@ -498,32 +525,39 @@ impl NewtonGroup {
         let gradient = SharedArray::new(&mut self.gradient);
         let (row_start, diag) = (&fine.start, &fine.diag);
         let vals = SharedArray::new(&mut fine.val);
-        for_parts(team, dof.len(), &|rows| {
-            for u in rows {
-                let i = dof[u] as usize;
-                let m = mass(inv_mass[i]) * inv_h2;
-                let mut g = (x[i] - target[u]) * m;
-                let mut d = DMat3::from_diagonal(DVec3::splat(m));
-                // SAFETY (every access below): the slots of row `u` and `gradient[u]` belong to
-                // this part alone (one part per row), and all are in bounds: the pattern was
-                // built with these rows and slots.
-                for s in row_start[u] as usize..row_start[u + 1] as usize {
-                    unsafe { *vals.at(s) = DMat3::ZERO };
-                }
-                for &(e, slot, first) in &incident[start[u] as usize..start[u + 1] as usize] {
-                    let (f, k) = (forces[e as usize], stiffness[e as usize]);
-                    g += if first { f } else { -f };
-                    d += k;
-                    if slot != u32::MAX {
-                        unsafe { *vals.at(slot as usize) -= k };
+        team.for_ranges(inertia_chunks, split(dof.len()), &|range| {
+            for c in range {
+                let mut inertia = 0.0;
+                for u in c * CHUNK..((c + 1) * CHUNK).min(dof.len()) {
+                    let i = dof[u] as usize;
+                    inertia += mass(inv_mass[i]) * scale * (x[i] - target[u]).length_squared();
+                    let m = mass(inv_mass[i]) * inv_h2;
+                    let mut g = (x[i] - target[u]) * m;
+                    let mut d = DMat3::from_diagonal(DVec3::splat(m));
+                    // SAFETY (every access below): the slots of row `u`, `gradient[u]` and the
+                    // chunk's sum belong to this part alone (one part per chunk of rows), and
+                    // all are in bounds: the pattern was built with these rows and slots, and
+                    // `c < chunks <= partial.len()` (asserted).
+                    for s in row_start[u] as usize..row_start[u + 1] as usize {
+                        unsafe { *vals.at(s) = DMat3::ZERO };
+                    }
+                    for &(e, slot, first) in &incident[start[u] as usize..start[u + 1] as usize] {
+                        let (f, k) = (forces[e as usize], stiffness[e as usize]);
+                        g += if first { f } else { -f };
+                        d += k;
+                        if slot != u32::MAX {
+                            unsafe { *vals.at(slot as usize) -= k };
+                        }
+                    }
+                    unsafe {
+                        *vals.at(diag[u] as usize) = d;
+                        *gradient.at(u) = g;
                     }
                 }
-                unsafe {
-                    *vals.at(diag[u] as usize) = d;
-                    *gradient.at(u) = g;
-                }
+                unsafe { *sums.at(c) = inertia };
             }
         });
+        self.partial[..chunks].iter().sum()
     }
 }
 
@@ -578,7 +612,7 @@ impl ConstraintGroup for NewtonGroup {
         }
         let team = ctx.team;
         let p = ctx.particles();
-        self.assemble(team, p.x, p.inv_mass, h);
+        let f0 = self.assemble(team, p.x, p.inv_mass, h);
         self.hierarchy.refit(p.x);
         if !self.hierarchy.update(team) {
             return Err(PluginError::new(
@@ -606,7 +640,6 @@ impl ConstraintGroup for NewtonGroup {
         );
         self.step = step;
         let mut partial = std::mem::take(&mut self.partial);
-        let f0 = self.objective(team, p.x, p.inv_mass, h, 0.0, &mut partial);
         let mut t = 1.0;
         let mut halvings = 0;
         // Halves while Φ does not decrease, or is NaN (a step through coincident particles).
