@@ -99,10 +99,9 @@ pub(crate) fn later_residuals(
     assert!(later_start
         .last()
         .is_some_and(|&n| n as usize <= later.len()));
-    assert!(later.iter().all(|&s| (s as usize) < a.val.len()));
     #[cfg(target_arch = "x86_64")]
     if avx2_available() {
-        // SAFETY: AVX2 is present; the lengths and slots are checked above.
+        // SAFETY: AVX2 is present (the slots are indexed with bounds checks).
         unsafe { avx2::later_residuals(a, later_start, later, x, rows, y) };
         return;
     }
@@ -372,7 +371,7 @@ mod avx2 {
     /// [`super::later_residuals`] in the lanes.
     ///
     /// # Safety
-    /// AVX2 is present; the lengths and slots checked by [`super::later_residuals`].
+    /// AVX2 is present.
     #[target_feature(enable = "avx2")]
     pub(super) unsafe fn later_residuals(
         a: &BlockMatrix,
@@ -386,8 +385,7 @@ mod avx2 {
             let mut sum = _mm256_setzero_pd();
             for &s in &later[later_start[i] as usize..later_start[i + 1] as usize] {
                 let s = s as usize;
-                // SAFETY: `s` is a slot (checked by the caller) and its column is `< a.n() <=
-                // x.len()`.
+                // SAFETY: `&x[..]` is a valid vector (indexed with a bounds check).
                 sum = _mm256_sub_pd(sum, unsafe {
                     block_times(&a.val[s], &x[a.col[s] as usize])
                 });
