@@ -82,11 +82,13 @@ pub(crate) fn row_products(a: &BlockMatrix, x: &[DVec3], rows: Rows, y: &mut [DV
     }
 }
 
-/// `y[k] = −Σ A[i, j] x[j]` over the slots `later[later_start[i]..later_start[i + 1]]` of each
-/// row `i` of `rows` (`y[k]` for the `k`-th of them), subtracted in order from zero: after a
-/// forward Gauss-Seidel sweep from `x = 0`, the residual `b − A x` of each row, when `later`
-/// lists the slots whose columns the sweep visits after the row ([`crate::multigrid`]'s
-/// `later_slots`).
+/// `y[k] = c A[i, i] x[i] − Σ A[i, j] x[j]` over the slots
+/// `later[later_start[i]..later_start[i + 1]]` of each row `i` of `rows` (`y[k]` for the `k`-th
+/// of them), subtracted in order from the first term (`c = diagonal`; zero when it is). After
+/// a forward Gauss-Seidel sweep from `x = 0` with relaxation weight `ω`, the residual `b − A x`
+/// of each row, when `later` lists the slots whose columns the sweep visits after the row
+/// ([`crate::multigrid`]'s `later_slots`) and `c = (1 − ω)/ω`: the row's sweep left
+/// `A[i, i] x[i] = ω (b[i] − Σ_{earlier} A[i, j] x[j])`.
 pub(crate) fn later_residuals(
     a: &BlockMatrix,
     later_start: &[u32],
@@ -94,6 +96,7 @@ pub(crate) fn later_residuals(
     x: &[DVec3],
     rows: Rows,
     y: &mut [DVec3],
+    diagonal: f64,
 ) {
     assert!(x.len() >= a.n() && rows.end < later_start.len() && y.len() >= rows.len());
     assert!(later_start
@@ -102,11 +105,15 @@ pub(crate) fn later_residuals(
     #[cfg(target_arch = "x86_64")]
     if avx2_available() {
         // SAFETY: AVX2 is present (the slots are indexed with bounds checks).
-        unsafe { avx2::later_residuals(a, later_start, later, x, rows, y) };
+        unsafe { avx2::later_residuals(a, later_start, later, x, rows, y, diagonal) };
         return;
     }
     for (i, y) in rows.zip(y) {
-        let mut sum = DVec3::ZERO;
+        let mut sum = if diagonal == 0.0 {
+            DVec3::ZERO
+        } else {
+            a.val[a.diag[i] as usize] * x[i] * diagonal
+        };
         for &s in &later[later_start[i] as usize..later_start[i + 1] as usize] {
             sum -= a.val[s as usize] * x[a.col[s as usize] as usize];
         }
@@ -115,7 +122,9 @@ pub(crate) fn later_residuals(
 }
 
 /// One Gauss-Seidel update of row `i`: `x[i] = D⁻¹ (b[i] − Σ_{j ≠ i} A[i, j] x[j])`, the
-/// slots taken in decreasing column order (`backward == false`) or increasing.
+/// slots taken in decreasing column order (`backward == false`) or increasing; with a
+/// relaxation weight `omega ≠ 1`, `x[i]` moves by `omega` times that update (successive
+/// over- or under-relaxation: `x + (update − x) ω`).
 ///
 /// # Safety
 /// `x` holds at least `a.n()` vectors; no other thread writes `x[i]` or any `x[j]` of the row
@@ -128,6 +137,7 @@ unsafe fn update_row_scalar(
     x: SharedArray<DVec3>,
     i: usize,
     backward: bool,
+    omega: f64,
 ) {
     let mut sum = b;
     let mut term = |s: usize| {
@@ -144,11 +154,19 @@ unsafe fn update_row_scalar(
         slots.rev().for_each(&mut term);
     }
     // SAFETY: the caller's contract.
-    unsafe { *x.at(i) = inv * sum };
+    unsafe {
+        let update = inv * sum;
+        *x.at(i) = if omega == 1.0 {
+            update
+        } else {
+            *x.at(i) + (update - *x.at(i)) * omega
+        };
+    }
 }
 
-/// Gauss-Seidel updates ([`update_row_scalar`]) of the rows of `rows` in increasing order, or
-/// in decreasing order with the slots reversed when `backward`.
+/// Gauss-Seidel updates ([`update_row_scalar`], relaxation weight `omega`) of the rows of
+/// `rows` in increasing order, or in decreasing order with the slots reversed when
+/// `backward`.
 ///
 /// # Safety
 /// `x` holds at least `a.n()` vectors; no other thread writes a row of `rows` or any column
@@ -160,18 +178,19 @@ pub(crate) unsafe fn update_rows(
     x: SharedArray<DVec3>,
     rows: Rows,
     backward: bool,
+    omega: f64,
 ) {
     assert!(rows.end <= a.n() && inv_diag.len() >= a.n() && b.len() >= a.n());
     #[cfg(target_arch = "x86_64")]
     if avx2_available() {
         // SAFETY: AVX2 is present; the caller's contract, the lengths checked above.
-        unsafe { avx2::update_rows(a, inv_diag, b, x, rows, backward) };
+        unsafe { avx2::update_rows(a, inv_diag, b, x, rows, backward, omega) };
         return;
     }
     let row = |i: usize| {
         prefetch_ahead(a, i, backward);
         // SAFETY: the caller's contract.
-        unsafe { update_row_scalar(a, inv_diag[i], b[i], x, i, backward) }
+        unsafe { update_row_scalar(a, inv_diag[i], b[i], x, i, backward, omega) }
     };
     if backward {
         rows.rev().for_each(row);
@@ -380,9 +399,17 @@ mod avx2 {
         x: &[DVec3],
         rows: Rows,
         y: &mut [DVec3],
+        diagonal: f64,
     ) {
+        let weight = _mm256_set1_pd(diagonal);
         for (i, y) in rows.zip(y) {
-            let mut sum = _mm256_setzero_pd();
+            let mut sum = if diagonal == 0.0 {
+                _mm256_setzero_pd()
+            } else {
+                // SAFETY: `&x[i]` is a valid vector (indexed with a bounds check).
+                let d = unsafe { block_times(&a.val[a.diag[i] as usize], &x[i]) };
+                _mm256_mul_pd(d, weight)
+            };
             for &s in &later[later_start[i] as usize..later_start[i + 1] as usize] {
                 let s = s as usize;
                 // SAFETY: `&x[..]` is a valid vector (indexed with a bounds check).
@@ -407,7 +434,9 @@ mod avx2 {
         x: SharedArray<DVec3>,
         rows: Rows,
         backward: bool,
+        omega: f64,
     ) {
+        let weight = _mm256_set1_pd(omega);
         let row = |i: usize| {
             super::prefetch_ahead(a, i, backward);
             let mut sum = lanes_of(b[i]);
@@ -424,8 +453,15 @@ mod avx2 {
             } else {
                 slots.rev().for_each(&mut term);
             }
+            let mut update = block_times_lanes(&inv_diag[i], sum);
+            if omega != 1.0 {
+                // `x + (update − x) ω`, as the scalar rows round it.
+                // SAFETY: `i` is a row of the matrix, in `x`; the caller's contract.
+                let old = lanes_of(unsafe { *x.at(i) });
+                update = _mm256_add_pd(old, _mm256_mul_pd(_mm256_sub_pd(update, old), weight));
+            }
             // SAFETY: `i` is a row of the matrix, in `x`; the caller's contract.
-            unsafe { store(x.at(i), block_times_lanes(&inv_diag[i], sum)) };
+            unsafe { store(x.at(i), update) };
         };
         if backward {
             rows.rev().for_each(row);
@@ -603,29 +639,29 @@ mod tests {
 
     #[test]
     fn gauss_seidel_rows_have_the_bits_of_the_scalar_updates() {
+        // Plain Gauss-Seidel and under- and over-relaxed.
         let (a, inv, b) = random(300, 6, 2);
-        for backward in [false, true] {
-            for rows in [0..a.n(), 37..211] {
-                let (mut lanes, mut scalar) = (b.clone(), b.clone());
-                let shared = SharedArray::new(&mut lanes);
-                // SAFETY: one thread; `lanes` has a vector per row.
-                unsafe { update_rows(&a, &inv, &b, shared, rows.clone(), backward) };
-                let shared = SharedArray::new(&mut scalar);
-                let order: Vec<usize> = if backward {
-                    rows.clone().rev().collect()
-                } else {
-                    rows.clone().collect()
-                };
-                for i in order {
-                    // SAFETY: as above.
-                    unsafe { update_row_scalar(&a, inv[i], b[i], shared, i, backward) };
+        for omega in [1.0, 0.8, 1.3] {
+            for backward in [false, true] {
+                for rows in [0..a.n(), 37..211] {
+                    let (mut lanes, mut scalar) = (b.clone(), b.clone());
+                    let shared = SharedArray::new(&mut lanes);
+                    // SAFETY: one thread; `lanes` has a vector per row.
+                    unsafe { update_rows(&a, &inv, &b, shared, rows.clone(), backward, omega) };
+                    let shared = SharedArray::new(&mut scalar);
+                    let order: Vec<usize> = if backward {
+                        rows.clone().rev().collect()
+                    } else {
+                        rows.clone().collect()
+                    };
+                    for i in order {
+                        // SAFETY: as above.
+                        unsafe { update_row_scalar(&a, inv[i], b[i], shared, i, backward, omega) };
+                    }
+                    let what = format!("omega {omega}, backward {backward}, rows {rows:?}");
+                    assert_eq!(bits(&lanes), bits(&scalar), "{what}");
+                    assert!(lanes != b, "{what}: the sweep changed nothing");
                 }
-                assert_eq!(
-                    bits(&lanes),
-                    bits(&scalar),
-                    "backward {backward}, rows {rows:?}"
-                );
-                assert!(lanes != b, "the sweep changed nothing");
             }
         }
     }

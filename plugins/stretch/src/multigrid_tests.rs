@@ -848,11 +848,17 @@ fn the_v_cycle_is_a_symmetric_positive_definite_operator() {
         random_spd(graph.len(), &pairs, &mut rng),
         rigid_prolongations(&graph, 4, &x),
     );
+    let mut relaxed = cloth_hessian(33, true, true);
+    relaxed.set_relaxation(0.8);
+    let mut over = cloth_hessian(33, false, false);
+    over.set_relaxation(1.5);
     for (what, mut h) in [
         ("cloth", cloth_hessian(33, false, false)),
         ("random", random),
         ("folded cloth, rotations", cloth_hessian(33, true, true)),
         ("random, rotations", random_rigid),
+        ("folded cloth, rotations, relaxation 0.8", relaxed),
+        ("cloth, relaxation 1.5", over),
     ] {
         assert!(h.update(serial()));
         assert!(h.depth() >= 3, "{what}: {:?}", h.sizes());
@@ -1034,17 +1040,17 @@ fn turning_galerkin_sums_in_the_lanes_have_the_bits_of_the_scalar_terms() {
     }
 }
 
-/// After a forward sweep from zero on each level but the coarsest, the residual from the
-/// later columns ([`later_residuals`]) against `b − A x` by a full product: the largest
+/// After a forward sweep from zero (relaxation weight `omega`) on each level but the
+/// coarsest, the residual from the diagonal and the later columns ([`later_residuals`]) against `b − A x` by a full product: the largest
 /// difference relative to the larger of `|b|` and the residual's norm.
-fn sweep_residual_error(h: &mut Hierarchy, rng: &mut Rng) -> f64 {
+fn sweep_residual_error(h: &mut Hierarchy, rng: &mut Rng, omega: f64) -> f64 {
     let mut worst: f64 = 0.0;
     let depth = h.levels.len();
     for level in &mut h.levels[..depth - 1] {
         let n = level.a.n();
         level.b = rng.vector(n);
         level.x.iter_mut().for_each(|v| *v = DVec3::ZERO);
-        gauss_seidel(serial(), level, false);
+        gauss_seidel(serial(), level, false, omega);
         let mut ax = vec![DVec3::ZERO; n];
         level.a.mul(serial(), &level.x, &mut ax);
         let mut from_sweep = vec![DVec3::ZERO; n];
@@ -1055,6 +1061,7 @@ fn sweep_residual_error(h: &mut Hierarchy, rng: &mut Rng) -> f64 {
             &level.x,
             0..n,
             &mut from_sweep,
+            (1.0 - omega) / omega,
         );
         let r = norm(&from_sweep);
         let scale = norm(&level.b).max(r);
@@ -1077,9 +1084,13 @@ fn the_residual_from_the_forward_sweep_is_b_minus_a_x() {
     ] {
         assert!(h.update(serial()));
         assert!(h.depth() >= 3, "{what}: {:?}", h.sizes());
-        let error = sweep_residual_error(&mut h, &mut rng);
-        println!("{what}: residual from the sweep, largest difference {error:e}");
-        assert!(error < 1e-12, "{what}: {error:e}");
+        for omega in [1.0, 0.8, 1.3] {
+            let error = sweep_residual_error(&mut h, &mut rng, omega);
+            println!(
+                "{what}, relaxation {omega}: residual from the sweep, largest difference {error:e}"
+            );
+            assert!(error < 1e-12, "{what}, relaxation {omega}: {error:e}");
+        }
     }
     // Blocks that overflow the colours (swept in sequence), as in the test above.
     let size = GAUSS_SEIDEL_BLOCK;
@@ -1100,7 +1111,12 @@ fn the_residual_from_the_forward_sweep_is_b_minus_a_x() {
     };
     let mut h = Hierarchy::new(a, vec![p]);
     assert!(h.update(serial()));
-    let error = sweep_residual_error(&mut h, &mut rng);
-    println!("overflowing colours: residual from the sweep, largest difference {error:e}");
-    assert!(error < 1e-12, "overflowing colours: {error:e}");
+    for omega in [1.0, 0.8] {
+        let error = sweep_residual_error(&mut h, &mut rng, omega);
+        println!("overflowing colours, relaxation {omega}: residual from the sweep, largest difference {error:e}");
+        assert!(
+            error < 1e-12,
+            "overflowing colours, relaxation {omega}: {error:e}"
+        );
+    }
 }

@@ -552,7 +552,8 @@ fn the_kind_describes_itself() {
             "coarsest",
             "rotations",
             "plain_levels",
-            "start_passes"
+            "start_passes",
+            "relaxation"
         ]
     );
     for p in &infos {
