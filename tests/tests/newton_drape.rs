@@ -279,11 +279,16 @@ fn start_passes_let_two_newton_steps_a_substep_move_the_drape() {
 /// 1e-6 m/N, 1 substep of 3 Newton steps of 4 CG iterations after 10 start passes, with
 /// `params` (say `plain_levels = 1`) added to the kind's.
 fn drape_newton_soft(n: u32, params: &str) -> Simulation {
+    drape_newton_soft_cg(n, params, 4)
+}
+
+/// [`drape_newton_soft`] with `cg` CG iterations a Newton step.
+fn drape_newton_soft_cg(n: u32, params: &str, cg: u32) -> Simulation {
     edited_scene([
         (
             "params = { compliance = 1e-8, compression_compliance = 1e-8, cg_iterations = 5 }",
             format!(
-                "params = {{ compliance = 1e-6, compression_compliance = 1e-6, cg_iterations = 4, \
+                "params = {{ compliance = 1e-6, compression_compliance = 1e-6, cg_iterations = {cg}, \
                  start_passes = 10, {params} }}"
             ),
         ),
@@ -300,15 +305,19 @@ fn softer_springs_and_a_plain_first_level_hold_the_bounds_and_move_the_drape() {
     // at N = 32 over 120 frames (`bench/drape_metrics.py`, `bench/motion.py`): structural strain
     // max 0.087 %, RMS 0.0076 % (means over the last 60 frames), mean height −0.247 / −0.497 m
     // after 0.25 / 0.5 s, the energy rising by 0.11 J at most.
-    for plain_levels in [0, 1] {
-        let mut sim = drape_newton_soft(32, &format!("plain_levels = {plain_levels}"));
+    // And with the V-cycle's sweeps under-relaxed (README, "Under-relaxed sweeps"): max 0.099 %,
+    // RMS 0.0094 %, rise 0.12 J. With 3 CG iterations a step, which hold both bounds at N = 128,
+    // the energy rises by 0.6–1.1 J here (five runs, gravity changed by 1e-8..1e-6): not tested.
+    for (plain_levels, relaxation, cg) in [(0, 1.0, 4), (1, 1.0, 4), (1, 0.7, 4)] {
+        let setting = format!("plain_levels = {plain_levels}, relaxation = {relaxation:?}");
+        let mut sim = drape_newton_soft_cg(32, &setting, cg);
         let edges = structural_edges(&sim, 32);
         let (mut worst, mut worst_rms) = (0.0f64, 0.0f64);
         let mut heights = Vec::new();
         let (mut lowest, mut rise) = (f64::INFINITY, 0.0f64);
         for f in 0..60 {
             sim.step_frame()
-                .unwrap_or_else(|e| panic!("plain_levels {plain_levels}, frame {f}: {e}"));
+                .unwrap_or_else(|e| panic!("{setting}, frame {f}: {e}"));
             let (max, rms) = strain(&sim, &edges);
             if f >= 30 {
                 worst = worst.max(max);
@@ -321,27 +330,18 @@ fn softer_springs_and_a_plain_first_level_hold_the_bounds_and_move_the_drape() {
         }
         let (quarter, half) = (heights[14], heights[29]);
         println!(
-            "drape_newton N = 32, compliance 1e-6, 1 x 3 x 4 CG, 10 start passes, plain_levels \
-             {plain_levels}: frames 31-60 max strain {:.4} %, RMS {:.5} % (worst frames); mean \
-             height {quarter:.3} / {half:.3} m at 0.25 / 0.5 s; energy rise {rise:.3} J",
+            "drape_newton N = 32, compliance 1e-6, 1 x 3 x {cg} CG, 10 start passes, {setting}: \
+             frames 31-60 max strain {:.4} %, RMS {:.5} % (worst frames); mean height \
+             {quarter:.3} / {half:.3} m at 0.25 / 0.5 s; energy rise {rise:.3} J",
             100.0 * worst,
             100.0 * worst_rms
         );
-        assert!(
-            worst <= 0.01,
-            "plain_levels {plain_levels}: max strain {worst}"
-        );
-        assert!(
-            worst_rms <= 0.001,
-            "plain_levels {plain_levels}: RMS {worst_rms}"
-        );
+        assert!(worst <= 0.01, "{setting}: max strain {worst}");
+        assert!(worst_rms <= 0.001, "{setting}: RMS {worst_rms}");
         // Within 3 cm of plain `stretch` at 320 substeps (−0.239 / −0.489 m).
         assert!((quarter + 0.239).abs() < 0.03, "{quarter} m at 0.25 s");
         assert!((half + 0.489).abs() < 0.03, "{half} m at 0.5 s");
-        assert!(
-            rise < 0.3,
-            "plain_levels {plain_levels}: the energy rose by {rise} J"
-        );
+        assert!(rise < 0.3, "{setting}: the energy rose by {rise} J");
     }
 }
 
