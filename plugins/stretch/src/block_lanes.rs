@@ -43,7 +43,15 @@
 //! change); the hint in the products; the fine and copying levels' blocks, which are exactly
 //! symmetric, packed as six doubles for the sweeps and products (two thirds of the bytes, the
 //! same bits, packed at each update: min of 5 alternating runs 26.0 against 25.5 ms on 2
-//! threads, 48.9 against 47.7 on one).
+//! threads, 48.9 against 47.7 on one); CG's product `A p` taken from the V-cycle's backward
+//! sweep, `A z = r + E (z_old − z_new)` over the blocks of the columns the sweep changed
+//! after each row, with `p`'s recurrence applied to it (exact to 1e-15 of `|A z|`, half a
+//! product's blocks, but 1.00–1.08 times the time in round-robins of 14–16 runs, whether the
+//! sweep wrote each row's change or a copy kept the old values; 2026-11-27).
+//!
+//! [`later_residuals`] (the V-cycle's residual after its forward sweep) reads its slots through
+//! an index list: per block it costs about 1.65 times a product's (the perf samples of one run:
+//! 6.7 % for 0.71 fine products' blocks a V-cycle against 5.7 % for CG's one product).
 //!
 //! Left unexplained: timed alone on a 128 × 128 cloth Hessian, a fine-level product takes
 //! 0.19 ms, and 0.53 ms right after 8 MB of other data were touched (0.69 ms after 16 MB, 0.89

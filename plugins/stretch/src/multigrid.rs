@@ -17,11 +17,14 @@
 //!   Cholesky factor for a new fine matrix, allocating nothing.
 //! * [`Hierarchy::v_cycle`] — one forward block Gauss-Seidel sweep, the coarse correction,
 //!   one backward sweep: a symmetric positive definite preconditioner for a symmetric
-//!   positive definite matrix. The residual restricted after the forward sweep is taken from
+//!   positive definite matrix, also with the sweeps relaxed by one weight `ω` in (0, 2)
+//!   ([`Hierarchy::set_relaxation`]). The residual restricted after the forward sweep is taken from
 //!   the blocks whose columns the sweep visits after each row (each row's own sweep zeroed
-//!   the rest; `later_slots`): fewer than half a product's blocks. It equals `b − A x` to
-//!   rounding (1e-16 of `|b|` in `the_residual_from_the_forward_sweep_is_b_minus_a_x`), and
-//!   made part 6's drape about 15 % faster on 2 threads (alternating runs, 2026-11-27).
+//!   the rest, up to a `(1 − ω)/ω` share of the diagonal block's term; `later_slots`): fewer
+//!   than half a product's blocks. It equals `b − A x` to
+//!   rounding (1e-16 of `|b|` in `the_residual_from_the_forward_sweep_is_b_minus_a_x`); part
+//!   6's drape took 0.90 of the time on one thread and 0.91–0.97 on two (alternating runs,
+//!   2026-11-27).
 //! * [`Pcg`] — conjugate gradients from zero with that preconditioner, at most a given number
 //!   of iterations.
 //!
