@@ -886,32 +886,17 @@ fn the_v_cycle_stays_symmetric_when_blocks_overflow_the_colours() {
     // colouring gives blocks 0..64 a colour each and leaves blocks 64..70 to the last range,
     // swept in sequence (flagged not independent). Two levels, so the fine level is smoothed:
     // coarse particle k interpolates to the rows of parity k.
-    let size = GAUSS_SEIDEL_BLOCK;
-    let count = 70u32;
-    let n = count as usize * size;
-    let pairs: Vec<(u32, u32)> = (0..count)
-        .flat_map(|p| (p + 1..count).map(move |q| (p * size as u32, q * size as u32 + 1)))
-        .collect();
     let mut rng = Rng(99);
-    let a = random_spd(n, &pairs, &mut rng);
-    let (blocks, colours) = a.block_colours(size);
-    assert_eq!(blocks.len(), count as usize);
+    let mut h = overflowing(&mut rng);
+    let (size, n) = (GAUSS_SEIDEL_BLOCK, h.fine().n());
+    let (blocks, colours) = (&h.levels[0].blocks, &h.levels[0].colours);
+    assert_eq!(blocks.len(), 70);
     assert!(
         colours
             .iter()
             .any(|(range, independent)| !independent && range.len() > 1),
         "no overflowing colour of several blocks: {colours:?}"
     );
-    let p = Prolongation {
-        coarse: 2,
-        start: (0..=n as u32).collect(),
-        col: (0..n as u32).map(|i| i % 2).collect(),
-        weight: vec![1.0; n],
-        turn: vec![false; n],
-        arm: vec![DVec3::ZERO; n],
-        origin: vec![[u32::MAX; 2]; n],
-    };
-    let mut h = Hierarchy::new(a, vec![p]);
     assert!(h.update(serial()));
     // u and v on the overflowing blocks' rows only (the property holds for every u, v).
     let overflow = 64 * size;
@@ -1093,23 +1078,7 @@ fn the_residual_from_the_forward_sweep_is_b_minus_a_x() {
         }
     }
     // Blocks that overflow the colours (swept in sequence), as in the test above.
-    let size = GAUSS_SEIDEL_BLOCK;
-    let count = 70u32;
-    let n = count as usize * size;
-    let pairs: Vec<(u32, u32)> = (0..count)
-        .flat_map(|p| (p + 1..count).map(move |q| (p * size as u32, q * size as u32 + 1)))
-        .collect();
-    let a = random_spd(n, &pairs, &mut rng);
-    let p = Prolongation {
-        coarse: 2,
-        start: (0..=n as u32).collect(),
-        col: (0..n as u32).map(|i| i % 2).collect(),
-        weight: vec![1.0; n],
-        turn: vec![false; n],
-        arm: vec![DVec3::ZERO; n],
-        origin: vec![[u32::MAX; 2]; n],
-    };
-    let mut h = Hierarchy::new(a, vec![p]);
+    let mut h = overflowing(&mut rng);
     assert!(h.update(serial()));
     for omega in [1.0, 0.8] {
         let error = sweep_residual_error(&mut h, &mut rng, omega);
@@ -1119,4 +1088,27 @@ fn the_residual_from_the_forward_sweep_is_b_minus_a_x() {
             "overflowing colours, relaxation {omega}: {error:e}"
         );
     }
+}
+
+/// 70 blocks of [`GAUSS_SEIDEL_BLOCK`] rows, every two coupled by one pair of rows (so that
+/// blocks 64..70 overflow the colours and are swept in sequence), and a coarse level of two
+/// particles, one for the rows of each parity.
+fn overflowing(rng: &mut Rng) -> Hierarchy {
+    let size = GAUSS_SEIDEL_BLOCK;
+    let count = 70u32;
+    let n = count as usize * size;
+    let pairs: Vec<(u32, u32)> = (0..count)
+        .flat_map(|p| (p + 1..count).map(move |q| (p * size as u32, q * size as u32 + 1)))
+        .collect();
+    let a = random_spd(n, &pairs, rng);
+    let p = Prolongation {
+        coarse: 2,
+        start: (0..=n as u32).collect(),
+        col: (0..n as u32).map(|i| i % 2).collect(),
+        weight: vec![1.0; n],
+        turn: vec![false; n],
+        arm: vec![DVec3::ZERO; n],
+        origin: vec![[u32::MAX; 2]; n],
+    };
+    Hierarchy::new(a, vec![p])
 }
