@@ -518,12 +518,14 @@ impl NewtonGroup {
                 for e in c * CHUNK..((c + 1) * CHUNK).min(edges.len()) {
                     let [i, j] = edges[e];
                     let d = x[j as usize] - x[i as usize];
-                    let (f, k) = spring(d, rest[e], ks, kc)
-                        .map_or((DVec3::ZERO, DMat3::ZERO), |(_, f, k)| (f, k));
-                    // `objective`'s energy, whatever the edge's length.
-                    let stretch = d.length() - rest[e];
-                    let k_energy = if stretch >= 0.0 { ks } else { kc };
-                    energy += 0.5 * k_energy * stretch * stretch;
+                    // The spring's energy is `objective`'s expression; an edge without
+                    // direction has no force or stiffness but still its energy there.
+                    let (spring_energy, f, k) = spring(d, rest[e], ks, kc).unwrap_or_else(|| {
+                        let c = d.length() - rest[e];
+                        let k = if c >= 0.0 { ks } else { kc };
+                        (0.5 * k * c * c, DVec3::ZERO, DMat3::ZERO)
+                    });
+                    energy += spring_energy;
                     // SAFETY: `e < edges.len()`, the length of both arrays (asserted); each
                     // part writes its own edges.
                     unsafe {
@@ -551,9 +553,10 @@ impl NewtonGroup {
                 let mut inertia = 0.0;
                 for u in c * CHUNK..((c + 1) * CHUNK).min(dof.len()) {
                     let i = dof[u] as usize;
-                    inertia += mass(inv_mass[i]) * scale * (x[i] - target[u]).length_squared();
-                    let m = mass(inv_mass[i]) * inv_h2;
-                    let mut g = (x[i] - target[u]) * m;
+                    let (mass_i, moved) = (mass(inv_mass[i]), x[i] - target[u]);
+                    inertia += mass_i * scale * moved.length_squared();
+                    let m = mass_i * inv_h2;
+                    let mut g = moved * m;
                     let mut d = DMat3::from_diagonal(DVec3::splat(m));
                     // SAFETY (every access below): the slots of row `u`, `gradient[u]` and the
                     // chunk's sum belong to this part alone (one part per chunk of rows), and
