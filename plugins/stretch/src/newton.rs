@@ -257,7 +257,20 @@ pub fn spring(d: DVec3, rest: f64, k_stretch: f64, k_compress: f64) -> Option<(f
     // step overshoot into stretch, where the line search then stalls.
     let along = k_stretch.max(k_compress);
     let stiffness = nn * along + (DMat3::IDENTITY - nn) * (geometric * k);
-    Some((0.5 * k * c * c, -n * (k * c), stiffness))
+    Some((
+        spring_energy(c, k_stretch, k_compress),
+        -n * (k * c),
+        stiffness,
+    ))
+}
+
+/// An edge's spring energy `k C²/2` at `C = l − L` (`k` the stretch spring when `C ≥ 0`, else
+/// the compression one): [`spring`]'s, the objective's and the assembly's, one expression so
+/// that their sums have the same bits.
+#[inline]
+fn spring_energy(c: f64, k_stretch: f64, k_compress: f64) -> f64 {
+    let k = if c >= 0.0 { k_stretch } else { k_compress };
+    0.5 * k * c * c
 }
 
 /// The `stretch_newton` group. Unknowns are the free particles of the target objects, in the
@@ -462,12 +475,7 @@ impl NewtonGroup {
                 for e in range {
                     let ([i, j], [a, b]) = (self.edges[e], self.ends[e]);
                     let c = (at(j, b) - at(i, a)).length() - self.rest[e];
-                    let k = if c >= 0.0 {
-                        self.k_stretch
-                    } else {
-                        self.k_compress
-                    };
-                    sum += 0.5 * k * c * c;
+                    sum += spring_energy(c, self.k_stretch, self.k_compress);
                 }
             }
             sum
@@ -520,12 +528,11 @@ impl NewtonGroup {
                     let d = x[j as usize] - x[i as usize];
                     // The spring's energy is `objective`'s expression; an edge without
                     // direction has no force or stiffness but still its energy there.
-                    let (spring_energy, f, k) = spring(d, rest[e], ks, kc).unwrap_or_else(|| {
+                    let (edge_energy, f, k) = spring(d, rest[e], ks, kc).unwrap_or_else(|| {
                         let c = d.length() - rest[e];
-                        let k = if c >= 0.0 { ks } else { kc };
-                        (0.5 * k * c * c, DVec3::ZERO, DMat3::ZERO)
+                        (spring_energy(c, ks, kc), DVec3::ZERO, DMat3::ZERO)
                     });
-                    energy += spring_energy;
+                    energy += edge_energy;
                     // SAFETY: `e < edges.len()`, the length of both arrays (asserted); each
                     // part writes its own edges.
                     unsafe {
