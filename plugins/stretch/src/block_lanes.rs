@@ -117,16 +117,29 @@ pub(crate) fn later_residuals(
         return;
     }
     for (i, y) in rows.zip(y) {
-        let mut sum = if diagonal == 0.0 {
-            DVec3::ZERO
-        } else {
-            a.val[a.diag[i] as usize] * x[i] * diagonal
-        };
-        for &s in &later[later_start[i] as usize..later_start[i + 1] as usize] {
-            sum -= a.val[s as usize] * x[a.col[s as usize] as usize];
-        }
-        *y = sum;
+        *y = later_residual_scalar(a, later_start, later, x, i, diagonal);
     }
+}
+
+/// Row `i` of [`later_residuals`], in scalar code.
+#[inline]
+fn later_residual_scalar(
+    a: &BlockMatrix,
+    later_start: &[u32],
+    later: &[u32],
+    x: &[DVec3],
+    i: usize,
+    diagonal: f64,
+) -> DVec3 {
+    let mut sum = if diagonal == 0.0 {
+        DVec3::ZERO
+    } else {
+        a.val[a.diag[i] as usize] * x[i] * diagonal
+    };
+    for &s in &later[later_start[i] as usize..later_start[i + 1] as usize] {
+        sum -= a.val[s as usize] * x[a.col[s as usize] as usize];
+    }
+    sum
 }
 
 /// One Gauss-Seidel update of row `i`: `x[i] = D⁻¹ (b[i] − Σ_{j ≠ i} A[i, j] x[j])`, the
@@ -610,6 +623,30 @@ mod tests {
         v.iter()
             .map(|v| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()])
             .collect()
+    }
+
+    #[test]
+    fn later_residuals_have_the_bits_of_the_scalar_sums() {
+        // Every other slot of each row as its "later" list, with and without the diagonal term.
+        let (a, _, x) = random(300, 6, 3);
+        let mut later_start = vec![0u32];
+        let mut later = Vec::new();
+        for i in 0..a.n() {
+            later.extend((a.start[i]..a.start[i + 1]).step_by(2));
+            later_start.push(later.len() as u32);
+        }
+        for diagonal in [0.0, 0.25, -0.3] {
+            let mut y = vec![DVec3::ZERO; a.n()];
+            later_residuals(&a, &later_start, &later, &x, 0..a.n(), &mut y, diagonal);
+            let scalar: Vec<DVec3> = (0..a.n())
+                .map(|i| later_residual_scalar(&a, &later_start, &later, &x, i, diagonal))
+                .collect();
+            assert_eq!(bits(&y), bits(&scalar), "diagonal {diagonal}");
+            assert!(y.iter().any(|v| *v != DVec3::ZERO), "nothing summed");
+            let mut part = vec![DVec3::ZERO; 7];
+            later_residuals(&a, &later_start, &later, &x, 100..107, &mut part, diagonal);
+            assert_eq!(bits(&part), bits(&scalar[100..107]), "diagonal {diagonal}");
+        }
     }
 
     #[test]
