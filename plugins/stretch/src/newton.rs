@@ -288,10 +288,15 @@ pub struct NewtonGroup {
     /// other end is a pin) and whether `u` is the edge's first end.
     incident_start: Vec<u32>,
     incident: Vec<(u32, u32, bool)>,
-    /// Per edge, at the current positions: the force on its second end and its stiffness
-    /// block (both zero for an edge without direction).
+    /// Per edge, where its stiffness block goes: for an edge between two unknowns, the fine
+    /// matrix's slots `(a, b)` and `(b, a)`, which it alone writes (`−K`); for an edge to a pin,
+    /// `[u32::MAX, k]` with `k` its index in `pin_stiffness`.
+    edge_slots: Vec<[u32; 2]>,
+    /// Per edge, at the current positions: the force on its second end (zero for an edge
+    /// without direction); per edge to a pin, its stiffness block `K`, which only the diagonal
+    /// takes.
     edge_force: Vec<DVec3>,
-    edge_stiffness: Vec<DMat3>,
+    pin_stiffness: Vec<DMat3>,
     /// The objective's chunk sums.
     partial: Vec<f64>,
     /// The two compliances (for the residual), and the springs `k = 1/α` they give.
@@ -380,6 +385,37 @@ impl NewtonGroup {
                 lists[b as usize].push((e as u32, slot(b, a), false));
             }
         }
+        // Each free pair's two off-diagonal slots belong to its edge alone (the assembly's
+        // edge loop writes them in parallel), so two edges may not join one pair (the core's
+        // complexes never list one twice); an edge to a pin gets a stiffness of its own.
+        let mut pairs: Vec<[u32; 2]> = edges.iter().map(|&[i, j]| [i.min(j), i.max(j)]).collect();
+        pairs.sort_unstable();
+        if let Some(w) = pairs.windows(2).find(|w| w[0] == w[1]) {
+            let [i, j] = w[0];
+            let targets = scene.unique_targets()?;
+            let object = targets
+                .iter()
+                .find(|(_, o)| o.particles().contains(&(i as usize)))
+                .map_or("", |(_, o)| o.name.as_str());
+            return Err(PluginError::bad_object(
+                object,
+                format!("particles {i} and {j} are joined by two edges"),
+            ));
+        }
+        let mut pins = 0u32;
+        let edge_slots: Vec<[u32; 2]> = ends
+            .iter()
+            .map(|&[a, b]| {
+                if a == u32::MAX || b == u32::MAX {
+                    pins += 1;
+                    [u32::MAX, pins - 1]
+                } else {
+                    [(a, b), (b, a)].map(|(u, v)| {
+                        fine.slot(u, v).expect("the pattern holds every free pair") as u32
+                    })
+                }
+            })
+            .collect();
         let mut incident_start = vec![0u32];
         let mut incident = Vec::new();
         for list in lists {
@@ -414,7 +450,8 @@ impl NewtonGroup {
             edges,
             rest,
             edge_force: vec![DVec3::ZERO; ends.len()],
-            edge_stiffness: vec![DMat3::ZERO; ends.len()],
+            pin_stiffness: vec![DMat3::ZERO; pins as usize],
+            edge_slots,
             partial: vec![0.0; n.div_ceil(CHUNK) + ends.len().div_ceil(CHUNK)],
             ends,
             incident_start,
@@ -497,20 +534,31 @@ impl NewtonGroup {
     }
 
     /// Assembles `∇Φ` (into `gradient`) and `H` (into the hierarchy's fine matrix): each
-    /// edge's force and stiffness, then each unknown's row from its incident edges, both
-    /// split over the team by chunks of [`CHUNK`] edges or unknowns (every value computed by
-    /// one part, in a fixed order). Returns `Φ` at `x`, summed as [`objective`](Self::objective)
-    /// sums it at `t = 0` — the same bits for a finite step — from the chunks' sums, which
-    /// the same loops take on the way.
+    /// edge's force and stiffness, its `−K` written straight into its two off-diagonal slots
+    /// (each slot is one edge's), then each unknown's row — its diagonal block from its own
+    /// row's slots and its gradient from its incident edges' forces. Both loops are split over
+    /// the team by chunks of [`CHUNK`] edges or unknowns (every value computed by one part, in
+    /// a fixed order). Returns `Φ` at `x`, summed as [`objective`](Self::objective) sums it at
+    /// `t = 0` — the same bits for a finite step — from the chunks' sums, which the same loops
+    /// take on the way.
     fn assemble(&mut self, team: TeamRef<'_>, x: &[DVec3], inv_mass: &[f64], h: f64) -> f64 {
         let (ks, kc) = (self.k_stretch, self.k_compress);
-        let (edges, rest) = (&self.edges, &self.rest);
+        let (edges, rest, edge_slots) = (&self.edges, &self.rest, &self.edge_slots);
         let inertia_chunks = self.dof.len().div_ceil(CHUNK);
         let chunks = inertia_chunks + edges.len().div_ceil(CHUNK);
-        assert!(self.edge_force.len() == edges.len() && self.edge_stiffness.len() == edges.len());
+        let fine = self.hierarchy.fine_mut();
+        assert!(self.edge_force.len() == edges.len() && edge_slots.len() == edges.len());
         assert!(self.partial.len() >= chunks);
+        let vals_len = fine.val.len();
+        let pins = self.pin_stiffness.len();
+        assert!(edge_slots.iter().all(|s| if s[0] == u32::MAX {
+            (s[1] as usize) < pins
+        } else {
+            (s[0].max(s[1]) as usize) < vals_len
+        }));
         let forces = SharedArray::new(&mut self.edge_force);
-        let stiffness = SharedArray::new(&mut self.edge_stiffness);
+        let pin_stiffness = SharedArray::new(&mut self.pin_stiffness);
+        let vals = SharedArray::new(&mut fine.val);
         let sums = SharedArray::new(&mut self.partial);
         // Split from `PARALLEL_MIN_ROWS` edges or unknowns on, as the multigrid's loops.
         let split = |items: usize| {
@@ -533,11 +581,20 @@ impl NewtonGroup {
                         (spring_energy(c, ks, kc), DVec3::ZERO, DMat3::ZERO)
                     });
                     energy += edge_energy;
-                    // SAFETY: `e < edges.len()`, the length of both arrays (asserted); each
-                    // part writes its own edges.
+                    let [ab, ba] = edge_slots[e];
+                    // SAFETY: every index is in bounds (asserted above: `e < edges.len()`, the
+                    // forces' length too, and the edge's slots or pin index); each part writes
+                    // its own edges, and each edge's slots (or pin stiffness) are its alone
+                    // (checked when the group was built).
                     unsafe {
                         *forces.at(e) = f;
-                        *stiffness.at(e) = k;
+                        if ab == u32::MAX {
+                            *pin_stiffness.at(ba as usize) = k;
+                        } else {
+                            // `0 − K`: the bits of the sum the rows took before (a zero stays +0).
+                            *vals.at(ab as usize) = DMat3::ZERO - k;
+                            *vals.at(ba as usize) = DMat3::ZERO - k;
+                        }
                     }
                 }
                 // SAFETY: `inertia_chunks + c < chunks <= partial.len()` (asserted); each
@@ -547,13 +604,12 @@ impl NewtonGroup {
         });
         let inv_h2 = 1.0 / (h * h);
         let scale = 1.0 / (2.0 * h * h);
-        let (forces, stiffness) = (&self.edge_force, &self.edge_stiffness);
+        let (forces, pin_stiffness) = (&self.edge_force, &self.pin_stiffness);
         let (dof, target) = (&self.dof, &self.target);
         let (start, incident) = (&self.incident_start, &self.incident);
-        let fine = self.hierarchy.fine_mut();
         assert!(self.gradient.len() == dof.len() && fine.n() == dof.len());
         let gradient = SharedArray::new(&mut self.gradient);
-        let (row_start, diag) = (&fine.start, &fine.diag);
+        let diag = &fine.diag;
         let vals = SharedArray::new(&mut fine.val);
         team.for_ranges(inertia_chunks, split(dof.len()), &|range| {
             for c in range {
@@ -565,20 +621,19 @@ impl NewtonGroup {
                     let m = mass_i * inv_h2;
                     let mut g = moved * m;
                     let mut d = DMat3::from_diagonal(DVec3::splat(m));
-                    // SAFETY (every access below): the slots of row `u`, `gradient[u]` and the
-                    // chunk's sum belong to this part alone (one part per chunk of rows), and
-                    // all are in bounds: the pattern was built with these rows and slots, and
+                    // SAFETY (every access below): the slots of row `u` are in bounds (the
+                    // pattern was built with these rows and slots, and every edge's slots and
+                    // pin index were asserted above); the edge loop has joined, this part alone
+                    // writes row `u`'s diagonal, `gradient[u]` and the chunk's sum, and
                     // `c < chunks <= partial.len()` (asserted).
-                    for s in row_start[u] as usize..row_start[u + 1] as usize {
-                        unsafe { *vals.at(s) = DMat3::ZERO };
-                    }
                     for &(e, slot, first) in &incident[start[u] as usize..start[u + 1] as usize] {
-                        let (f, k) = (forces[e as usize], stiffness[e as usize]);
+                        let f = forces[e as usize];
                         g += if first { f } else { -f };
-                        d += k;
-                        if slot != u32::MAX {
-                            unsafe { *vals.at(slot as usize) -= k };
-                        }
+                        d += if slot == u32::MAX {
+                            pin_stiffness[edge_slots[e as usize][1] as usize]
+                        } else {
+                            -unsafe { *vals.at(slot as usize) }
+                        };
                     }
                     unsafe {
                         *vals.at(diag[u] as usize) = d;

@@ -488,6 +488,26 @@ fn bad_geometry_is_an_error_naming_the_object() {
     assert_eq!(e.subject.as_str(), "cloth");
     assert!(e.message.as_str().contains("(2, 9)"), "{e}");
 
+    // The assembly writes each pair's blocks from its one edge: a second is refused, either
+    // way round, and between a free particle and a pin too.
+    for twice in [[0, 3], [3, 0], [3, 1]] {
+        let mut mesh = grid(1);
+        mesh.inv_mass[1] = 0.0;
+        mesh.edges.push(twice);
+        let e = group(&mesh, "{}")
+            .err()
+            .expect("two edges joining one pair accepted");
+        assert_eq!(e.code, PluginError::BAD_OBJECT);
+        assert_eq!(e.subject.as_str(), "cloth");
+        let [i, j] = [twice[0].min(twice[1]), twice[0].max(twice[1])];
+        assert!(
+            e.message
+                .as_str()
+                .contains(&format!("particles {i} and {j} are joined by two edges")),
+            "{e}"
+        );
+    }
+
     let mut mesh = grid(1);
     mesh.edges.push([1, 1]);
     let e = group(&mesh, "{}")
