@@ -506,6 +506,9 @@ struct Level {
     /// `Σ Bᵢᵀ A[fine slot] Bⱼ` (the prolongation's entries) accumulated into each coarse slot
     /// of the upper triangle and the diagonal.
     galerkin: Vec<(u32, u32, u32, u32)>,
+    /// Where each coarse block's run of terms ends in `galerkin` (its terms are consecutive,
+    /// sorted by coarse slot): the runs found once, not scanned for at every update.
+    runs: Vec<u32>,
     /// Per Galerkin term, the product of its two weights, when the prolongation only copies
     /// (empty when it turns): the term is then the fine block times it.
     copy_weights: Vec<f64>,
@@ -560,19 +563,18 @@ impl Level {
             .expect("a prolongation on every level but the last");
         let vals = SharedArray::new(&mut next.a.val);
         let coarse_len = next.a.val.len();
-        for_parts(team, g.len(), &|range| {
-            // Whole coarse blocks per part: move both ends past a run of equal slots.
-            let edge = |mut k: usize| {
-                while k > 0 && k < g.len() && g[k].1 == g[k - 1].1 {
-                    k += 1;
-                }
-                k
+        let runs = &self.runs;
+        assert!(runs.last().is_none_or(|&end| end as usize == g.len()));
+        // Each coarse block is the sum of its run of terms, stored once; the runs (whole
+        // coarse blocks) are split over the team.
+        for_parts(team, runs.len(), &|range| {
+            let mut at = if range.start == 0 {
+                0
+            } else {
+                runs[range.start - 1] as usize
             };
-            let (first, end) = (edge(range.start), edge(range.end));
-            let terms = &g[first..end];
-            let mut at = first;
-            // Each coarse block is the sum of its run of terms, stored once.
-            for run in terms.chunk_by(|x, y| x.1 == y.1) {
+            for &end in &runs[range] {
+                let run = &g[at..end as usize];
                 let t = run[0].1 as usize;
                 assert!(t < coarse_len);
                 let sum = if self.rigid {
@@ -585,12 +587,11 @@ impl Level {
                         sum
                     })
                 } else {
-                    weighted_sum(&a.val, run, &copy_weights[at..at + run.len()])
+                    weighted_sum(&a.val, run, &copy_weights[at..end as usize])
                 };
-                at += run.len();
-                // SAFETY: in bounds (asserted); the terms of one coarse block are
-                // consecutive in `g` and all go to the part whose range holds the
-                // first of them, so no two parts write one block.
+                at = end as usize;
+                // SAFETY: in bounds (asserted); each coarse block is one run's, and each run
+                // is one part's.
                 unsafe { *vals.at(t) = sum };
             }
         });
@@ -660,6 +661,10 @@ impl Hierarchy {
             }
             // Accumulate coarse slots in order: better locality for the numeric product.
             galerkin.sort_unstable_by_key(|&(s, t, ki, kj)| (t, s, ki, kj));
+            let runs: Vec<u32> = (1..=galerkin.len())
+                .filter(|&k| k == galerkin.len() || galerkin[k].1 != galerkin[k - 1].1)
+                .map(|k| k as u32)
+                .collect();
             let mut mirror = Vec::new();
             for i in 0..coarse.n() {
                 for t in coarse.start[i] as usize..coarse.diag[i] as usize {
@@ -686,6 +691,7 @@ impl Hierarchy {
                 restriction: Restriction::new(&p),
                 p: Some(p),
                 galerkin,
+                runs,
                 copy_weights,
                 mirror,
                 blocks,
