@@ -100,7 +100,7 @@ pub(crate) fn row_products(a: &BlockMatrix, x: &[DVec3], rows: Rows, y: &mut [DV
 pub(crate) fn later_residuals(
     a: &BlockMatrix,
     later_start: &[u32],
-    later: &[u32],
+    later: &[[u32; 2]],
     x: &[DVec3],
     rows: Rows,
     y: &mut [DVec3],
@@ -110,6 +110,9 @@ pub(crate) fn later_residuals(
     assert!(later_start
         .last()
         .is_some_and(|&n| n as usize <= later.len()));
+    assert!(later
+        .iter()
+        .all(|&[start, end]| start <= end && end as usize <= a.val.len()));
     #[cfg(target_arch = "x86_64")]
     if avx2_available() {
         // SAFETY: AVX2 is present (the slots are indexed with bounds checks).
@@ -126,7 +129,7 @@ pub(crate) fn later_residuals(
 fn later_residual_scalar(
     a: &BlockMatrix,
     later_start: &[u32],
-    later: &[u32],
+    later: &[[u32; 2]],
     x: &[DVec3],
     i: usize,
     diagonal: f64,
@@ -136,8 +139,10 @@ fn later_residual_scalar(
     } else {
         a.val[a.diag[i] as usize] * x[i] * diagonal
     };
-    for &s in &later[later_start[i] as usize..later_start[i + 1] as usize] {
-        sum -= a.val[s as usize] * x[a.col[s as usize] as usize];
+    for &[start, end] in &later[later_start[i] as usize..later_start[i + 1] as usize] {
+        for s in start as usize..end as usize {
+            sum -= a.val[s] * x[a.col[s] as usize];
+        }
     }
     sum
 }
@@ -416,7 +421,7 @@ mod avx2 {
     pub(super) unsafe fn later_residuals(
         a: &BlockMatrix,
         later_start: &[u32],
-        later: &[u32],
+        later: &[[u32; 2]],
         x: &[DVec3],
         rows: Rows,
         y: &mut [DVec3],
@@ -431,12 +436,12 @@ mod avx2 {
                 let d = unsafe { block_times(&a.val[a.diag[i] as usize], &x[i]) };
                 _mm256_mul_pd(d, weight)
             };
-            for &s in &later[later_start[i] as usize..later_start[i + 1] as usize] {
-                let s = s as usize;
-                // SAFETY: `&x[..]` is a valid vector (indexed with a bounds check).
-                sum = _mm256_sub_pd(sum, unsafe {
-                    block_times(&a.val[s], &x[a.col[s] as usize])
-                });
+            for &[start, end] in &later[later_start[i] as usize..later_start[i + 1] as usize] {
+                let run = start as usize..end as usize;
+                for (m, &j) in a.val[run.clone()].iter().zip(&a.col[run]) {
+                    // SAFETY: `&x[j]` is a valid vector (indexed with a bounds check).
+                    sum = _mm256_sub_pd(sum, unsafe { block_times(m, &x[j as usize]) });
+                }
             }
             // SAFETY: `y` is a valid vector.
             unsafe { store(y, sum) };
@@ -627,12 +632,15 @@ mod tests {
 
     #[test]
     fn later_residuals_have_the_bits_of_the_scalar_sums() {
-        // Every other slot of each row as its "later" list, with and without the diagonal term.
+        // Runs of one and of two slots of each row as its "later" list (the first slot alone,
+        // then every other pair), with and without the diagonal term.
         let (a, _, x) = random(300, 6, 3);
         let mut later_start = vec![0u32];
         let mut later = Vec::new();
         for i in 0..a.n() {
-            later.extend((a.start[i]..a.start[i + 1]).step_by(2));
+            let (start, end) = (a.start[i], a.start[i + 1]);
+            later.push([start, start + 1]);
+            later.extend((start + 1..end).step_by(4).map(|s| [s, (s + 2).min(end)]));
             later_start.push(later.len() as u32);
         }
         for diagonal in [0.0, 0.25, -0.3] {

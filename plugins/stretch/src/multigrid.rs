@@ -519,10 +519,11 @@ struct Level {
     /// [`BlockMatrix::block_colours`]).
     blocks: Vec<std::ops::Range<usize>>,
     colours: Vec<(std::ops::Range<usize>, bool)>,
-    /// Per row `i`, `later[later_start[i]..later_start[i + 1]]`: the slots of the row whose
-    /// columns the forward sweep visits after row `i` ([`later_slots`]).
+    /// Per row `i`, `later[later_start[i]..later_start[i + 1]]`: the runs of consecutive slots
+    /// (`start..end`) of the row whose columns the forward sweep visits after row `i`
+    /// ([`later_slots`]).
     later_start: Vec<u32>,
-    later: Vec<u32>,
+    later: Vec<[u32; 2]>,
     /// Right-hand side, solution and residual of this level within a V-cycle.
     b: Vec<DVec3>,
     x: Vec<DVec3>,
@@ -858,16 +859,19 @@ impl Hierarchy {
     }
 }
 
-/// Per row, the slots whose columns a forward sweep ([`gauss_seidel`]) visits after the row:
-/// `(later_start, later)`, row `i`'s slots `later[later_start[i]..later_start[i + 1]]`, in slot
-/// order. The sweep visits the colours in order, each colour's blocks in order, each block's
-/// rows in order; two blocks of one independent colour share no block of the matrix, so their
-/// relative order does not matter and the list is the same whatever the thread count.
+/// Per row, the slots whose columns a forward sweep ([`gauss_seidel`]) visits after the row,
+/// as runs of consecutive slots: `(later_start, later)`, row `i`'s runs
+/// `later[later_start[i]..later_start[i + 1]]`, each `[start, end)`, in slot order. The sweep
+/// visits the colours in order, each colour's blocks in order, each block's rows in order; two
+/// blocks of one independent colour share no block of the matrix, so their relative order does
+/// not matter and the list is the same whatever the thread count. On a grid the later columns
+/// of a row are its own block's past the row and whole neighbouring blocks: one or two runs,
+/// read without an index per slot.
 fn later_slots(
     a: &BlockMatrix,
     blocks: &[std::ops::Range<usize>],
     colours: &[(std::ops::Range<usize>, bool)],
-) -> (Vec<u32>, Vec<u32>) {
+) -> (Vec<u32>, Vec<[u32; 2]>) {
     let mut visit = vec![usize::MAX; a.n()];
     let mut order = 0;
     for (range, _) in colours {
@@ -883,14 +887,20 @@ fn later_slots(
         "the blocks cover every row"
     );
     let mut later_start = vec![0u32];
-    let mut later = Vec::new();
+    let mut later: Vec<[u32; 2]> = Vec::new();
     for i in 0..a.n() {
-        let slots = a.start[i] as usize..a.start[i + 1] as usize;
-        later.extend(
-            slots
-                .filter(|&s| visit[a.col[s] as usize] > visit[i])
-                .map(|s| s as u32),
-        );
+        let first_run = later.len();
+        for s in a.start[i] as usize..a.start[i + 1] as usize {
+            if visit[a.col[s] as usize] <= visit[i] {
+                continue;
+            }
+            let s = s as u32;
+            let grows = later.len() > first_run;
+            match later.last_mut() {
+                Some(run) if grows && run[1] == s => run[1] = s + 1,
+                _ => later.push([s, s + 1]),
+            }
+        }
         later_start.push(later.len() as u32);
     }
     (later_start, later)

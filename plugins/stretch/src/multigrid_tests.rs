@@ -1090,6 +1090,41 @@ fn the_residual_from_the_forward_sweep_is_b_minus_a_x() {
     }
 }
 
+#[test]
+fn a_grid_rows_later_slots_are_at_most_two_runs() {
+    // The residual after the forward sweep reads each row's later slots run by run: on the
+    // fine level of a cloth grid (blocks of consecutive rows) the later columns are the row's
+    // own block past it and the neighbouring blocks of later colours, one or two runs.
+    let h = cloth_hessian(65, false, false);
+    let fine = &h.levels[0];
+    let n = fine.a.n();
+    let runs = |i: usize| (fine.later_start[i + 1] - fine.later_start[i]) as usize;
+    let slots: usize = fine.later.iter().map(|r| (r[1] - r[0]) as usize).sum();
+    let most = (0..n).map(runs).max().unwrap_or(0);
+    let mean = fine.later.len() as f64 / n as f64;
+    println!(
+        "fine level: {n} rows, {} slots, {slots} later ({:.2} a row) in {mean:.2} runs a row, at most {most}",
+        fine.a.val.len(),
+        slots as f64 / n as f64
+    );
+    assert!(most <= 2, "{most} runs in a row");
+    // Fewer than half the slots: the point of taking the residual from the sweep.
+    assert!(
+        2 * slots < fine.a.val.len(),
+        "{slots} of {}",
+        fine.a.val.len()
+    );
+    for (i, pair) in fine.later_start.windows(2).enumerate() {
+        for r in &fine.later[pair[0] as usize..pair[1] as usize] {
+            let row = fine.a.start[i]..fine.a.start[i + 1];
+            assert!(
+                r[0] < r[1] && row.contains(&r[0]) && r[1] <= row.end,
+                "row {i}: {r:?}"
+            );
+        }
+    }
+}
+
 /// 70 blocks of [`GAUSS_SEIDEL_BLOCK`] rows, every two coupled by one pair of rows (so that
 /// blocks 64..70 overflow the colours and are swept in sequence), and a coarse level of two
 /// particles, one for the rows of each parity.
