@@ -247,16 +247,20 @@ pub fn spring(d: DVec3, rest: f64, k_stretch: f64, k_compress: f64) -> Option<(f
     if !(l > MIN_LENGTH && l.is_finite()) {
         return None;
     }
-    let n = d / l;
+    // One division an edge (the assembly's edge loop is a few per cent of a drape's step).
+    let inv_l = 1.0 / l;
+    let n = d * inv_l;
     let c = l - rest;
     let k = if c >= 0.0 { k_stretch } else { k_compress };
-    let nn = DMat3::from_cols(n * n.x, n * n.y, n * n.z);
-    let geometric = (1.0 - rest / l).max(0.0);
+    let across = (1.0 - rest * inv_l).max(0.0) * k;
     // Along the edge, the stiffer of the two springs: the piecewise quadratic energy's curvature
     // jumps at the rest length, and a compressed edge modelled by its soft spring lets the
     // step overshoot into stretch, where the line search then stalls.
     let along = k_stretch.max(k_compress);
-    let stiffness = nn * along + (DMat3::IDENTITY - nn) * (geometric * k);
+    // `along n nᵀ + across (I − n nᵀ)`, as `(along − across) n nᵀ + across I`: exactly
+    // symmetric (`nᵢ nⱼ = nⱼ nᵢ`), as the multigrid needs.
+    let nn = DMat3::from_cols(n * n.x, n * n.y, n * n.z);
+    let stiffness = nn * (along - across) + DMat3::from_diagonal(DVec3::splat(across));
     Some((
         spring_energy(c, k_stretch, k_compress),
         -n * (k * c),
