@@ -815,6 +815,19 @@ impl Hierarchy {
         z.copy_from_slice(&self.levels[0].x);
     }
 
+    /// [`v_cycle`](Self::v_cycle) without copying: `r` is lent to the finest level as its
+    /// right-hand side and given back unchanged, and `z` is swapped with the level's solution
+    /// (both must have the finest level's length).
+    pub fn v_cycle_in_place(&mut self, team: TeamRef<'_>, r: &mut Vec<DVec3>, z: &mut Vec<DVec3>) {
+        let fine = &mut self.levels[0];
+        assert!(r.len() == fine.b.len() && z.len() == fine.x.len());
+        std::mem::swap(&mut fine.b, r);
+        self.cycle(team, 0);
+        let fine = &mut self.levels[0];
+        std::mem::swap(&mut fine.b, r);
+        std::mem::swap(&mut fine.x, z);
+    }
+
     fn cycle(&mut self, team: TeamRef<'_>, l: usize) {
         let omega = self.relaxation;
         if l + 1 == self.levels.len() {
@@ -1011,10 +1024,35 @@ pub struct Pcg {
     z: Vec<DVec3>,
     p: Vec<DVec3>,
     q: Vec<DVec3>,
+    /// The dot products' chunk sums ([`dot`]).
+    partial: Vec<f64>,
 }
 
-fn dot(a: &[DVec3], b: &[DVec3]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x.dot(*y)).sum()
+/// Rows of one chunk of CG's dot products.
+pub const DOT_CHUNK: usize = 1024;
+
+/// `a · b`, in chunks of [`DOT_CHUNK`] rows split over the team, each chunk summed in order,
+/// then the chunks' sums in order: the same bits whatever the thread count (and, below one
+/// chunk, the plain sum's). `partial` holds a sum per chunk.
+fn dot(team: TeamRef<'_>, a: &[DVec3], b: &[DVec3], partial: &mut [f64]) -> f64 {
+    assert!(a.len() == b.len());
+    let chunks = a.len().div_ceil(DOT_CHUNK);
+    let partial = &mut partial[..chunks];
+    team.for_ranges_mut(
+        partial,
+        PARALLEL_MIN_ROWS.div_ceil(DOT_CHUNK),
+        &|range, sums| {
+            for (c, sum) in range.zip(sums) {
+                let rows = c * DOT_CHUNK..((c + 1) * DOT_CHUNK).min(a.len());
+                *sum = a[rows.clone()]
+                    .iter()
+                    .zip(&b[rows])
+                    .map(|(x, y)| x.dot(*y))
+                    .sum();
+            }
+        },
+    );
+    partial.iter().sum()
 }
 
 impl Pcg {
@@ -1025,6 +1063,7 @@ impl Pcg {
             z: vec![DVec3::ZERO; n],
             p: vec![DVec3::ZERO; n],
             q: vec![DVec3::ZERO; n],
+            partial: vec![0.0; n.div_ceil(DOT_CHUNK)],
         }
     }
 
@@ -1045,7 +1084,7 @@ impl Pcg {
     ) -> CgStats {
         x.iter_mut().for_each(|v| *v = DVec3::ZERO);
         self.r.copy_from_slice(b);
-        let r0 = dot(&self.r, &self.r).sqrt();
+        let r0 = dot(team, &self.r, &self.r, &mut self.partial).sqrt();
         let mut stats = CgStats {
             iterations: 0,
             reduction: 1.0,
@@ -1057,12 +1096,12 @@ impl Pcg {
         if r0 <= floor {
             return stats;
         }
-        h.v_cycle(team, &self.r, &mut self.z);
+        h.v_cycle_in_place(team, &mut self.r, &mut self.z);
         self.p.copy_from_slice(&self.z);
-        let mut rz = dot(&self.r, &self.z);
+        let mut rz = dot(team, &self.r, &self.z, &mut self.partial);
         for _ in 0..max_iterations {
             h.fine().mul(team, &self.p, &mut self.q);
-            let pq = dot(&self.p, &self.q);
+            let pq = dot(team, &self.p, &self.q, &mut self.partial);
             if !(pq > 0.0 && rz.is_finite()) {
                 break;
             }
@@ -1080,13 +1119,13 @@ impl Pcg {
                 }
             });
             stats.iterations += 1;
-            let rn = dot(&self.r, &self.r).sqrt();
+            let rn = dot(team, &self.r, &self.r, &mut self.partial).sqrt();
             stats.reduction = rn / r0;
             if stats.reduction <= tolerance || rn <= floor || stats.iterations == max_iterations {
                 break;
             }
-            h.v_cycle(team, &self.r, &mut self.z);
-            let rz_new = dot(&self.r, &self.z);
+            h.v_cycle_in_place(team, &mut self.r, &mut self.z);
+            let rz_new = dot(team, &self.r, &self.z, &mut self.partial);
             let beta = rz_new / rz;
             rz = rz_new;
             let z = &self.z;

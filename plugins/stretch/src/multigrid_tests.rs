@@ -133,6 +133,35 @@ fn norm(v: &[DVec3]) -> f64 {
     dot(v, v).sqrt()
 }
 
+/// `a · b` summed row after row (the tests' reference; CG's own [`super::dot`] sums in chunks).
+fn dot(a: &[DVec3], b: &[DVec3]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x.dot(*y)).sum()
+}
+
+#[test]
+fn cg_dot_products_have_the_same_bits_on_any_team_and_the_row_sums_value() {
+    let mut rng = Rng(11);
+    let team = Team::new(1);
+    let two = TeamRef::new(&team);
+    assert_eq!(two.parts(), 2);
+    for n in [1, DOT_CHUNK - 1, DOT_CHUNK, 3 * DOT_CHUNK + 17, 16_382] {
+        let (a, b) = (rng.vector(n), rng.vector(n));
+        let mut partial = vec![f64::NAN; n.div_ceil(DOT_CHUNK)];
+        let on_one = super::dot(serial(), &a, &b, &mut partial);
+        let on_two = super::dot(two, &a, &b, &mut partial);
+        assert_eq!(on_one.to_bits(), on_two.to_bits(), "{n} rows");
+        let rows = dot(&a, &b);
+        let scale: f64 = a.iter().zip(&b).map(|(x, y)| x.abs().dot(y.abs())).sum();
+        assert!(
+            (on_one - rows).abs() <= 1e-14 * scale,
+            "{n} rows: {on_one} against {rows}"
+        );
+        if n <= DOT_CHUNK {
+            assert_eq!(on_one.to_bits(), rows.to_bits(), "{n} rows, one chunk");
+        }
+    }
+}
+
 fn max_abs(v: &[f64]) -> f64 {
     v.iter().fold(0.0, |m, x| m.max(x.abs()))
 }
@@ -869,6 +898,12 @@ fn the_v_cycle_is_a_symmetric_positive_definite_operator() {
             let (mut mu, mut mv) = (vec![DVec3::ZERO; n], vec![DVec3::ZERO; n]);
             h.v_cycle(serial(), &u, &mut mu);
             h.v_cycle(serial(), &v, &mut mv);
+            // CG's own call, lending its vectors: the same bits, `v` given back unchanged.
+            let (mut lent, mut out) = (v.clone(), vec![DVec3::splat(f64::NAN); n]);
+            h.v_cycle_in_place(serial(), &mut lent, &mut out);
+            assert_eq!(flat(&lent), flat(&v), "{what}: the right-hand side changed");
+            let bits = |v: &[DVec3]| flat(v).into_iter().map(f64::to_bits).collect::<Vec<_>>();
+            assert_eq!(bits(&out), bits(&mv), "{what}: in place");
             let (umu, vmv) = (dot(&u, &mu), dot(&v, &mv));
             assert!(umu > 0.0 && vmv > 0.0, "{what}: not positive");
             // |uᵀMv| ≤ √(uᵀMu · vᵀMv) for an SPD M: the scale of the asymmetry.
