@@ -573,7 +573,8 @@ fn the_kind_describes_itself() {
             "rotations",
             "plain_levels",
             "start_passes",
-            "relaxation"
+            "relaxation",
+            "extra_steps"
         ]
     );
     for p in &infos {
@@ -592,7 +593,7 @@ fn the_kind_describes_itself() {
 #[test]
 fn the_core_asks_for_the_report() {
     // The core calls `report` only on groups whose stages include REPORT; the module docs
-    // promise `cg_iterations`, `cg_reduction`, `halvings`, `levels` and
+    // promise `cg_iterations`, `cg_reduction`, `halvings`, `extra_steps`, `levels` and
     // `operator_complexity` in the stats.
     let group = group(&grid(2), "{}").expect("group");
     let stages = group.stages();
@@ -651,6 +652,59 @@ fn a_falling_rope_and_a_lone_particle_need_no_rotation_stiffness() {
         assert!(
             (lone - free_fall).abs() < 1e-6,
             "lone particle at {lone}, not {free_fall}"
+        );
+    }
+}
+
+#[test]
+fn a_step_the_line_search_shortened_is_followed_by_extra_steps_in_the_same_pass() {
+    // A wobbled 9 × 9 cloth with one CG iteration a step: the second Newton step overshoots
+    // and is halved, the first and third are not. With `extra_steps`, the second pass takes
+    // the third step too — the same bits as a third pass without — and stops there, since the
+    // third step was whole; a pass whose step is whole takes no extra one.
+    let mesh = grid(8);
+    let h = 1.0 / 60.0;
+    let start = stretched_by(&mesh, 1.0, 0.3);
+    let run = |extra: u32, passes: usize| {
+        let params = format!(
+            r#"{{"compliance": 1e-6, "compression_compliance": 1e-6, "cg_iterations": 1, "extra_steps": {extra}}}"#
+        );
+        let mut group = group(&mesh, &params).expect("group");
+        let mut state = State::with_substep(&mesh, start.clone(), h);
+        state.begin(&mut group);
+        let mut after = Vec::new();
+        for _ in 0..passes {
+            state.project(&mut group);
+            after.push((
+                state.x.clone(),
+                state.stat(&group, "halvings"),
+                state.stat(&group, "extra_steps"),
+            ));
+        }
+        after
+    };
+    let plain = run(0, 3);
+    let halvings: Vec<f64> = plain.iter().map(|a| a.1).collect();
+    assert_eq!(halvings, [0.0, 1.0, 1.0], "halvings so far, pass by pass");
+    assert!(
+        plain.iter().all(|a| a.2 == 0.0),
+        "extra steps taken with none allowed"
+    );
+    for extra in [1, 2] {
+        let with = run(extra, 2);
+        assert_eq!(
+            with[0].0, plain[0].0,
+            "extra_steps {extra}: a whole step took another"
+        );
+        assert_eq!(with[0].2, 0.0);
+        assert_eq!(
+            with[1].0, plain[2].0,
+            "extra_steps {extra}: not the third step's positions"
+        );
+        assert_eq!(
+            (with[1].1, with[1].2),
+            (1.0, 1.0),
+            "extra_steps {extra}: halvings, extra steps"
         );
     }
 }
