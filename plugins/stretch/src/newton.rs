@@ -775,7 +775,7 @@ impl ConstraintGroup for NewtonGroup {
         Ok(())
     }
 
-    /// One Newton step on `Φ` ([`NewtonGroup::newton_step`]), and up to `extra_steps` more
+    /// One Newton step on `Φ` (`NewtonGroup::newton_step`), and up to `extra_steps` more
     /// while the line search shortens them.
     fn project(&mut self, ctx: &mut SolveContext<'_>) -> Result<(), PluginError> {
         ctx.check_holds(self.max_index)?;
