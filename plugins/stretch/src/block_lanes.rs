@@ -95,7 +95,7 @@ pub(crate) fn row_products(a: &BlockMatrix, x: &[DVec3], rows: Rows, y: &mut [DV
 /// of them), subtracted in order from the first term (`c = diagonal`; zero when it is). After
 /// a forward Gauss-Seidel sweep from `x = 0` with relaxation weight `ω`, the residual `b − A x`
 /// of each row, when `later` lists the slots whose columns the sweep visits after the row
-/// ([`crate::multigrid`]'s `later_slots`) and `c = (1 − ω)/ω`: the row's sweep left
+/// ([`crate::multigrid`]'s `sweep_slots`) and `c = (1 − ω)/ω`: the row's sweep left
 /// `A[i, i] x[i] = ω (b[i] − Σ_{earlier} A[i, j] x[j])`.
 pub(crate) fn later_residuals(
     a: &BlockMatrix,
@@ -107,12 +107,16 @@ pub(crate) fn later_residuals(
     diagonal: f64,
 ) {
     assert!(x.len() >= a.n() && rows.end < later_start.len() && y.len() >= rows.len());
-    assert!(later_start
-        .last()
-        .is_some_and(|&n| n as usize <= later.len()));
-    assert!(later
+    // The runs of these rows only (a part of a level's rows per call).
+    let (first, last) = (
+        later_start[rows.start] as usize,
+        later_start[rows.end] as usize,
+    );
+    assert!(first <= last && last <= later.len());
+    assert!(later[first..last]
         .iter()
         .all(|&[start, end]| start <= end && end as usize <= a.val.len()));
+    assert!(later_start[rows.start..=rows.end].is_sorted());
     #[cfg(target_arch = "x86_64")]
     if avx2_available() {
         // SAFETY: AVX2 is present (the slots are indexed with bounds checks).
@@ -145,6 +149,93 @@ fn later_residual_scalar(
         }
     }
     sum
+}
+
+/// A forward Gauss-Seidel sweep's rows from `x = 0` ([`update_rows`] with every `x` zeroed
+/// first, `backward == false`): row `i` sums only its slots in `earlier[earlier_start[i]..
+/// earlier_start[i + 1]]` (runs `[start, end)` of the slots whose columns the sweep visits
+/// before the row; [`crate::multigrid`]'s `sweep_slots`), in decreasing slot order, since the
+/// others still hold zero, and its old value is that zero: the same bits (up to the sign of an
+/// exact zero) for about half the blocks, and nothing to zero first.
+///
+/// # Safety
+/// `x` holds at least `a.n()` vectors; the runs are slots of their rows; no other thread writes
+/// a row of `rows` or any column those rows read, nor reads a row of `rows`, meanwhile.
+#[allow(clippy::too_many_arguments)]
+pub(crate) unsafe fn update_rows_from_zero(
+    a: &BlockMatrix,
+    inv_diag: &[DMat3],
+    b: &[DVec3],
+    x: SharedArray<DVec3>,
+    earlier_start: &[u32],
+    earlier: &[[u32; 2]],
+    rows: Rows,
+    omega: f64,
+) {
+    assert!(rows.end <= a.n() && inv_diag.len() >= a.n() && b.len() >= a.n());
+    assert!(rows.end < earlier_start.len());
+    // The runs of these rows only: a sweep calls this block by block.
+    let (first, last) = (
+        earlier_start[rows.start] as usize,
+        earlier_start[rows.end] as usize,
+    );
+    assert!(first <= last && last <= earlier.len());
+    assert!(earlier[first..last]
+        .iter()
+        .all(|&[start, end]| start <= end && end as usize <= a.val.len()));
+    assert!(earlier_start[rows.start..=rows.end].is_sorted());
+    #[cfg(target_arch = "x86_64")]
+    if avx2_available() {
+        // SAFETY: AVX2 is present; the caller's contract, the lengths checked above.
+        unsafe {
+            avx2::update_rows_from_zero(a, inv_diag, b, x, earlier_start, earlier, rows, omega)
+        };
+        return;
+    }
+    for i in rows {
+        prefetch_ahead(a, i, false);
+        // SAFETY: the caller's contract.
+        unsafe {
+            update_row_from_zero_scalar(a, inv_diag[i], b[i], x, earlier_start, earlier, i, omega)
+        }
+    }
+}
+
+/// Row `i` of [`update_rows_from_zero`], in scalar code.
+///
+/// # Safety
+/// The contract of [`update_rows_from_zero`] for row `i`.
+#[inline]
+#[allow(clippy::too_many_arguments)]
+unsafe fn update_row_from_zero_scalar(
+    a: &BlockMatrix,
+    inv: DMat3,
+    b: DVec3,
+    x: SharedArray<DVec3>,
+    earlier_start: &[u32],
+    earlier: &[[u32; 2]],
+    i: usize,
+    omega: f64,
+) {
+    let mut sum = b;
+    for &[start, end] in earlier[earlier_start[i] as usize..earlier_start[i + 1] as usize]
+        .iter()
+        .rev()
+    {
+        for s in (start as usize..end as usize).rev() {
+            // SAFETY: the caller's contract.
+            sum -= a.val[s] * unsafe { *x.at(a.col[s] as usize) };
+        }
+    }
+    let update = inv * sum;
+    // SAFETY: the caller's contract.
+    unsafe {
+        *x.at(i) = if omega == 1.0 {
+            update
+        } else {
+            DVec3::ZERO + (update - DVec3::ZERO) * omega
+        };
+    }
 }
 
 /// One Gauss-Seidel update of row `i`: `x[i] = D⁻¹ (b[i] − Σ_{j ≠ i} A[i, j] x[j])`, the
@@ -496,6 +587,44 @@ mod avx2 {
         }
     }
 
+    /// [`super::update_rows_from_zero`] in the lanes.
+    ///
+    /// # Safety
+    /// AVX2 is present; the contract of [`super::update_rows_from_zero`].
+    #[target_feature(enable = "avx2")]
+    #[allow(clippy::too_many_arguments)]
+    pub(super) unsafe fn update_rows_from_zero(
+        a: &BlockMatrix,
+        inv_diag: &[DMat3],
+        b: &[DVec3],
+        x: SharedArray<DVec3>,
+        earlier_start: &[u32],
+        earlier: &[[u32; 2]],
+        rows: Rows,
+        omega: f64,
+    ) {
+        let (weight, zero) = (_mm256_set1_pd(omega), _mm256_setzero_pd());
+        for i in rows {
+            super::prefetch_ahead(a, i, false);
+            let mut sum = lanes_of(b[i]);
+            let runs = &earlier[earlier_start[i] as usize..earlier_start[i + 1] as usize];
+            for &[start, end] in runs.iter().rev() {
+                for s in (start as usize..end as usize).rev() {
+                    let j = a.col[s] as usize;
+                    // SAFETY: `j` is a column of the matrix, in `x`; the caller's contract.
+                    sum = _mm256_sub_pd(sum, unsafe { block_times(&a.val[s], x.at(j)) });
+                }
+            }
+            let mut update = block_times_lanes(&inv_diag[i], sum);
+            if omega != 1.0 {
+                // `0 + (update − 0) ω`: the scalar row's rounding from a zeroed `x`.
+                update = _mm256_add_pd(zero, _mm256_mul_pd(_mm256_sub_pd(update, zero), weight));
+            }
+            // SAFETY: `i` is a row of the matrix, in `x`; the caller's contract.
+            unsafe { store(x.at(i), update) };
+        }
+    }
+
     /// [`super::weighted_sum`] in the lanes: entries 0..3 and 4..7 of each block in two
     /// registers, entry 8 alone.
     ///
@@ -688,6 +817,61 @@ mod tests {
         let bits = |m: DMat3| m.to_cols_array().map(f64::to_bits);
         assert_eq!(bits(lanes), bits(scalar));
         assert_ne!(scalar, DMat3::ZERO);
+    }
+
+    #[test]
+    fn gauss_seidel_rows_from_zero_have_the_bits_of_the_scalar_updates() {
+        // Runs of one and of two slots below the diagonal as the "earlier" lists (the rows swept
+        // in order, so a row reads values the sweep already wrote), relaxed or not.
+        let (a, inv, b) = random(300, 6, 4);
+        let mut earlier_start = vec![0u32];
+        let mut earlier = Vec::new();
+        for i in 0..a.n() {
+            let (start, diag) = (a.start[i], a.diag[i]);
+            earlier.extend((start..diag).step_by(3).map(|s| [s, (s + 2).min(diag)]));
+            earlier_start.push(earlier.len() as u32);
+        }
+        assert!(
+            earlier.iter().any(|r| r[1] - r[0] == 2) && earlier.iter().any(|r| r[1] - r[0] == 1)
+        );
+        for omega in [1.0, 0.8, 1.3] {
+            for rows in [0..a.n(), 37..211] {
+                let (mut lanes, mut scalar) = (b.clone(), b.clone());
+                let shared = SharedArray::new(&mut lanes);
+                // SAFETY: one thread; `lanes` has a vector per row, the runs are the rows' slots.
+                unsafe {
+                    update_rows_from_zero(
+                        &a,
+                        &inv,
+                        &b,
+                        shared,
+                        &earlier_start,
+                        &earlier,
+                        rows.clone(),
+                        omega,
+                    )
+                };
+                let shared = SharedArray::new(&mut scalar);
+                for i in rows.clone() {
+                    // SAFETY: as above.
+                    unsafe {
+                        update_row_from_zero_scalar(
+                            &a,
+                            inv[i],
+                            b[i],
+                            shared,
+                            &earlier_start,
+                            &earlier,
+                            i,
+                            omega,
+                        )
+                    };
+                }
+                let what = format!("omega {omega}, rows {rows:?}");
+                assert_eq!(bits(&lanes), bits(&scalar), "{what}");
+                assert!(lanes != b, "{what}: the sweep changed nothing");
+            }
+        }
     }
 
     #[test]

@@ -20,11 +20,15 @@
 //!   positive definite matrix, also with the sweeps relaxed by one weight `ω` in (0, 2)
 //!   ([`Hierarchy::set_relaxation`]). The residual restricted after the forward sweep is taken from
 //!   the blocks whose columns the sweep visits after each row (each row's own sweep zeroed
-//!   the rest, up to a `(1 − ω)/ω` share of the diagonal block's term; `later_slots`): fewer
+//!   the rest, up to a `(1 − ω)/ω` share of the diagonal block's term; `sweep_slots`): fewer
 //!   than half a product's blocks. It equals `b − A x` to
 //!   rounding (1e-16 of `|b|` in `the_residual_from_the_forward_sweep_is_b_minus_a_x`); part
 //!   6's drape took 0.90 of the time on one thread and 0.91–0.97 on two (alternating runs,
-//!   2026-11-27).
+//!   2026-11-27). The forward sweep itself starts from zero, so each row reads only the blocks
+//!   of the columns swept before it (`sweep_slots`' earlier runs; `forward_from_zero`): the
+//!   same bits as zeroing and sweeping, and in process 0.82 of the fine level's forward sweep
+//!   and 0.62–0.65 of the coarser levels' (one thread, 2026-11-28; the fine level's waits for
+//!   memory, its whole rows prefetched either way).
 //! * [`Pcg`] — conjugate gradients from zero with that preconditioner, at most a given number
 //!   of iterations.
 //!
@@ -38,7 +42,9 @@
 
 use glam::{DMat3, DVec3};
 
-use crate::block_lanes::{later_residuals, turning_sum, update_rows, weighted_sum};
+use crate::block_lanes::{
+    later_residuals, turning_sum, update_rows, update_rows_from_zero, weighted_sum,
+};
 use nucleus_sdk::team::{span, SharedArray, TeamRef};
 
 /// A range of rows (or of blocks of rows).
@@ -521,9 +527,13 @@ struct Level {
     colours: Vec<(std::ops::Range<usize>, bool)>,
     /// Per row `i`, `later[later_start[i]..later_start[i + 1]]`: the runs of consecutive slots
     /// (`start..end`) of the row whose columns the forward sweep visits after row `i`
-    /// ([`later_slots`]).
+    /// ([`sweep_slots`]).
     later_start: Vec<u32>,
     later: Vec<[u32; 2]>,
+    /// The same for the slots whose columns the forward sweep visits before row `i` (the
+    /// diagonal in neither): all the forward sweep from zero reads.
+    earlier_start: Vec<u32>,
+    earlier: Vec<[u32; 2]>,
     /// Right-hand side, solution and residual of this level within a V-cycle.
     b: Vec<DVec3>,
     x: Vec<DVec3>,
@@ -684,7 +694,8 @@ impl Hierarchy {
             };
             let n = a.n();
             let (blocks, colours) = a.block_colours(GAUSS_SEIDEL_BLOCK);
-            let (later_start, later) = later_slots(&a, &blocks, &colours);
+            let [(later_start, later), (earlier_start, earlier)] =
+                sweep_slots(&a, &blocks, &colours);
             levels.push(Level {
                 a,
                 inv_diag: vec![DMat3::ZERO; n],
@@ -699,6 +710,8 @@ impl Hierarchy {
                 colours,
                 later_start,
                 later,
+                earlier_start,
+                earlier,
                 b: vec![DVec3::ZERO; n],
                 x: vec![DVec3::ZERO; n],
                 r: vec![DVec3::ZERO; n],
@@ -837,8 +850,8 @@ impl Hierarchy {
         }
         {
             let level = &mut self.levels[l];
-            level.x.iter_mut().for_each(|v| *v = DVec3::ZERO);
-            gauss_seidel(team, level, false, omega);
+            // From zero: each row reads only the rows swept before it (nothing to zero first).
+            forward_from_zero(team, level, omega);
             // The residual `b − A x`: each row's sweep left `A[i, i] x[i] = ω (b[i] − Σ A[i, j]
             // x[j])` over the columns swept before it (zero for the others then), so what
             // remains is `(1 − ω)/ω A[i, i] x[i]` and the later columns' terms — fewer than half
@@ -872,19 +885,20 @@ impl Hierarchy {
     }
 }
 
-/// Per row, the slots whose columns a forward sweep ([`gauss_seidel`]) visits after the row,
-/// as runs of consecutive slots: `(later_start, later)`, row `i`'s runs
-/// `later[later_start[i]..later_start[i + 1]]`, each `[start, end)`, in slot order. The sweep
-/// visits the colours in order, each colour's blocks in order, each block's rows in order; two
-/// blocks of one independent colour share no block of the matrix, so their relative order does
-/// not matter and the list is the same whatever the thread count. On a grid the later columns
-/// of a row are its own block's past the row and whole neighbouring blocks: one or two runs,
-/// read without an index per slot.
-fn later_slots(
+/// Runs of consecutive slots per row: the slots whose columns a forward sweep
+/// ([`gauss_seidel`]) visits after the row, then those it visits before it (the diagonal in
+/// neither), each as `(start, runs)`, row `i`'s runs `runs[start[i]..start[i + 1]]`, each
+/// `[start, end)`, in slot order. The sweep visits the colours in order, each colour's blocks in
+/// order, each block's rows in order; two blocks of one independent colour share no block of
+/// the matrix, so their relative order does not matter and the lists are the same whatever the
+/// thread count. On a grid the later columns of a row are its own block's past it and whole
+/// neighbouring blocks: one or two runs, as are the earlier ones, read without an index per
+/// slot.
+fn sweep_slots(
     a: &BlockMatrix,
     blocks: &[std::ops::Range<usize>],
     colours: &[(std::ops::Range<usize>, bool)],
-) -> (Vec<u32>, Vec<[u32; 2]>) {
+) -> [(Vec<u32>, Vec<[u32; 2]>); 2] {
     let mut visit = vec![usize::MAX; a.n()];
     let mut order = 0;
     for (range, _) in colours {
@@ -899,24 +913,56 @@ fn later_slots(
         visit.iter().all(|&v| v != usize::MAX),
         "the blocks cover every row"
     );
-    let mut later_start = vec![0u32];
-    let mut later: Vec<[u32; 2]> = Vec::new();
-    for i in 0..a.n() {
-        let first_run = later.len();
-        for s in a.start[i] as usize..a.start[i + 1] as usize {
-            if visit[a.col[s] as usize] <= visit[i] {
-                continue;
+    let runs = |later: bool| {
+        let mut start = vec![0u32];
+        let mut runs: Vec<[u32; 2]> = Vec::new();
+        for i in 0..a.n() {
+            let first_run = runs.len();
+            for s in a.start[i] as usize..a.start[i + 1] as usize {
+                let v = visit[a.col[s] as usize];
+                if v == visit[i] || (v > visit[i]) != later {
+                    continue;
+                }
+                let s = s as u32;
+                let grows = runs.len() > first_run;
+                match runs.last_mut() {
+                    Some(run) if grows && run[1] == s => run[1] = s + 1,
+                    _ => runs.push([s, s + 1]),
+                }
             }
-            let s = s as u32;
-            let grows = later.len() > first_run;
-            match later.last_mut() {
-                Some(run) if grows && run[1] == s => run[1] = s + 1,
-                _ => later.push([s, s + 1]),
-            }
+            start.push(runs.len() as u32);
         }
-        later_start.push(later.len() as u32);
+        (start, runs)
+    };
+    [runs(true), runs(false)]
+}
+
+/// The forward sweep of a V-cycle from `x = 0` on the level's `A x = b`: [`gauss_seidel`]'s
+/// order and split over the team, each row reading only the columns swept before it
+/// ([`update_rows_from_zero`]); the same bits as zeroing `x` and sweeping (up to the sign of
+/// an exact zero).
+fn forward_from_zero(team: TeamRef<'_>, level: &mut Level, omega: f64) {
+    let (a, inv_diag, b, blocks) = (&level.a, &level.inv_diag, &level.b, &level.blocks);
+    let (start, earlier) = (&level.earlier_start, &level.earlier);
+    assert!(level.x.len() >= a.n() && b.len() >= a.n() && inv_diag.len() >= a.n());
+    let x = SharedArray::new(&mut level.x);
+    let sweep = |blocks: &[std::ops::Range<usize>]| {
+        for rows in blocks {
+            // SAFETY: `x` has `a.n()` vectors (asserted); the rows of this block are swept by
+            // this part alone, and the rows they read were swept before them: in this block,
+            // or in blocks of an earlier colour (joined), never in another block of this one.
+            unsafe { update_rows_from_zero(a, inv_diag, b, x, start, earlier, rows.clone(), omega) }
+        }
+    };
+    let parts = team.parts();
+    for (range, independent) in &level.colours {
+        let colour = &blocks[range.clone()];
+        if *independent && parts > 1 && a.n() >= PARALLEL_MIN_ROWS && colour.len() > 1 {
+            team.run(&|part| sweep(&colour[span(part, parts, colour.len())]));
+        } else {
+            sweep(colour);
+        }
     }
-    (later_start, later)
 }
 
 /// One block Gauss-Seidel sweep on the level's `A x = b`: colour by colour, each block of

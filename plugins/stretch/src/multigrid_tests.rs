@@ -1126,36 +1126,90 @@ fn the_residual_from_the_forward_sweep_is_b_minus_a_x() {
 }
 
 #[test]
-fn a_grid_rows_later_slots_are_at_most_two_runs() {
-    // The residual after the forward sweep reads each row's later slots run by run: on the
-    // fine level of a cloth grid (blocks of consecutive rows) the later columns are the row's
-    // own block past it and the neighbouring blocks of later colours, one or two runs.
+fn a_grid_rows_later_and_earlier_slots_are_at_most_two_runs_each() {
+    // The residual after the forward sweep reads each row's later slots, and the forward sweep
+    // from zero its earlier ones, run by run: on the fine level of a cloth grid (blocks of
+    // consecutive rows) each is the row's own block on one side of it and whole neighbouring
+    // blocks, one or two runs; with the diagonal they are every slot of the row, once.
     let h = cloth_hessian(65, false, false);
     let fine = &h.levels[0];
     let n = fine.a.n();
-    let runs = |i: usize| (fine.later_start[i + 1] - fine.later_start[i]) as usize;
-    let slots: usize = fine.later.iter().map(|r| (r[1] - r[0]) as usize).sum();
-    let most = (0..n).map(runs).max().unwrap_or(0);
-    let mean = fine.later.len() as f64 / n as f64;
-    println!(
-        "fine level: {n} rows, {} slots, {slots} later ({:.2} a row) in {mean:.2} runs a row, at most {most}",
-        fine.a.val.len(),
-        slots as f64 / n as f64
-    );
-    assert!(most <= 2, "{most} runs in a row");
-    // Fewer than half the slots: the point of taking the residual from the sweep.
-    assert!(
-        2 * slots < fine.a.val.len(),
-        "{slots} of {}",
-        fine.a.val.len()
-    );
-    for (i, pair) in fine.later_start.windows(2).enumerate() {
-        for r in &fine.later[pair[0] as usize..pair[1] as usize] {
-            let row = fine.a.start[i]..fine.a.start[i + 1];
-            assert!(
-                r[0] < r[1] && row.contains(&r[0]) && r[1] <= row.end,
-                "row {i}: {r:?}"
-            );
+    for (what, start, runs) in [
+        ("later", &fine.later_start, &fine.later),
+        ("earlier", &fine.earlier_start, &fine.earlier),
+    ] {
+        let count = |i: usize| (start[i + 1] - start[i]) as usize;
+        let slots: usize = runs.iter().map(|r| (r[1] - r[0]) as usize).sum();
+        let most = (0..n).map(count).max().unwrap_or(0);
+        println!(
+            "fine level: {n} rows, {} slots, {slots} {what} ({:.2} a row) in {:.2} runs a row, at most {most}",
+            fine.a.val.len(),
+            slots as f64 / n as f64,
+            runs.len() as f64 / n as f64
+        );
+        assert!(most <= 2, "{what}: {most} runs in a row");
+        // Fewer than half the slots: the point of reading them alone.
+        assert!(
+            2 * slots < fine.a.val.len(),
+            "{what}: {slots} of {}",
+            fine.a.val.len()
+        );
+    }
+    for i in 0..n {
+        let row = fine.a.start[i] as usize..fine.a.start[i + 1] as usize;
+        let mut seen = vec![0; row.len()];
+        seen[fine.a.diag[i] as usize - row.start] += 1;
+        for (start, runs) in [
+            (&fine.later_start, &fine.later),
+            (&fine.earlier_start, &fine.earlier),
+        ] {
+            for r in &runs[start[i] as usize..start[i + 1] as usize] {
+                assert!(
+                    r[0] < r[1] && row.contains(&(r[0] as usize)) && r[1] as usize <= row.end,
+                    "row {i}: {r:?}"
+                );
+                (r[0]..r[1]).for_each(|s| seen[s as usize - row.start] += 1);
+            }
+        }
+        assert!(seen.iter().all(|&k| k == 1), "row {i}: slots seen {seen:?}");
+    }
+}
+
+#[test]
+fn the_forward_sweep_from_zero_has_the_bits_of_zeroing_and_sweeping() {
+    // Every level but the coarsest of a plain, a turning and an overflowing-colour hierarchy,
+    // plain and relaxed, on one thread and on two.
+    let mut rng = Rng(17);
+    let team = Team::new(1);
+    let two = TeamRef::new(&team);
+    let over = overflowing(&mut rng);
+    for (what, mut h) in [
+        ("cloth", cloth_hessian(65, false, false)),
+        ("folded cloth, rotations", cloth_hessian(65, true, true)),
+        ("overflowing colours", over),
+    ] {
+        assert!(h.update(serial()));
+        let depth = h.levels.len();
+        for omega in [1.0, 0.8] {
+            for level in &mut h.levels[..depth - 1] {
+                let n = level.a.n();
+                level.b = rng.vector(n);
+                level.x.iter_mut().for_each(|v| *v = DVec3::ZERO);
+                gauss_seidel(serial(), level, false, omega);
+                let swept = flat(&level.x);
+                for team in [serial(), two] {
+                    // Whatever x held before: the sweep from zero never reads it.
+                    level.x = rng.vector(n);
+                    forward_from_zero(team, level, omega);
+                    let bits = |v: &[f64]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
+                    assert_eq!(
+                        bits(&flat(&level.x)),
+                        bits(&swept),
+                        "{what}, {n} rows, relaxation {omega}, {} parts",
+                        team.parts()
+                    );
+                }
+            }
         }
     }
 }
