@@ -1128,8 +1128,11 @@ impl Pcg {
         tolerance: f64,
         floor: f64,
     ) -> CgStats {
-        x.iter_mut().for_each(|v| *v = DVec3::ZERO);
-        self.r.copy_from_slice(b);
+        assert!(b.len() == self.r.len());
+        team.for_ranges_mut(x, PARALLEL_MIN_ROWS, &|_, xs| xs.fill(DVec3::ZERO));
+        team.for_ranges_mut(&mut self.r, PARALLEL_MIN_ROWS, &|rows, rs| {
+            rs.copy_from_slice(&b[rows])
+        });
         let r0 = dot(team, &self.r, &self.r, &mut self.partial).sqrt();
         let mut stats = CgStats {
             iterations: 0,

@@ -332,6 +332,7 @@ pub struct NewtonGroup {
     cg_tolerance: f64,
     /// `x̃` of each unknown, set in `begin_substep`.
     target: Vec<DVec3>,
+    /// `−∇Φ` at the positions of the last assembly: the Newton step's right-hand side.
     gradient: Vec<DVec3>,
     step: Vec<DVec3>,
     hierarchy: Hierarchy,
@@ -563,7 +564,8 @@ impl NewtonGroup {
         partial[..chunks].iter().sum()
     }
 
-    /// Assembles `∇Φ` (into `gradient`) and `H` (into the hierarchy's fine matrix): each
+    /// Assembles `−∇Φ` (into `gradient`, the Newton step's right-hand side) and `H` (into the
+    /// hierarchy's fine matrix): each
     /// edge's force and stiffness, its `−K` written straight into its two off-diagonal slots
     /// (each slot is one edge's), then each unknown's row — its diagonal block from its own
     /// row's slots and its gradient from its incident edges' forces. Both loops are split over
@@ -667,7 +669,7 @@ impl NewtonGroup {
                     }
                     unsafe {
                         *vals.at(diag[u] as usize) = d;
-                        *gradient.at(u) = g;
+                        *gradient.at(u) = -g;
                     }
                 }
                 unsafe { *sums.at(c) = inertia };
@@ -689,9 +691,6 @@ impl NewtonGroup {
                 "",
                 "stretch_newton: the Hessian is not positive definite (non-finite positions or masses?)",
             ));
-        }
-        for g in self.gradient.iter_mut() {
-            *g = -*g;
         }
         if self.substep_gradient.is_nan() {
             let squared: f64 = self.gradient.iter().map(|g| g.length_squared()).sum();
@@ -726,9 +725,16 @@ impl NewtonGroup {
         self.partial = partial;
         self.halvings += halvings.min(MAX_HALVINGS);
         if t > 0.0 {
-            for (&i, s) in self.dof.iter().zip(&self.step) {
-                p.x[i as usize] += *s * t;
-            }
+            let (dof, step) = (&self.dof, &self.step);
+            assert!(dof.len() == step.len() && dof.iter().all(|&i| (i as usize) < p.x.len()));
+            let x = SharedArray::new(p.x);
+            team.for_ranges(dof.len(), PARALLEL_MIN_ROWS, &|range| {
+                for u in range {
+                    // SAFETY: in bounds (asserted); each particle is one unknown's (`dof` lists
+                    // distinct particles) and each unknown one part's.
+                    unsafe { *x.at(dof[u] as usize) += step[u] * t };
+                }
+            });
         }
         Ok(halvings)
     }
