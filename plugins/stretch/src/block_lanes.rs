@@ -90,6 +90,19 @@ pub(crate) fn row_products(a: &BlockMatrix, x: &[DVec3], rows: Rows, y: &mut [DV
     }
 }
 
+/// Panics unless `runs[start[i]..start[i + 1]]` is in bounds for each row `i` of `rows` and
+/// every such run `[s, e)` is a range of slots of `a`: the rows of one call only, since a sweep
+/// calls block by block (a check of the whole level at each call made a sweep 3 times slower).
+fn check_runs(a: &BlockMatrix, start: &[u32], runs: &[[u32; 2]], rows: &Rows) {
+    assert!(rows.start <= rows.end && rows.end < start.len());
+    assert!(start[rows.start..=rows.end].is_sorted());
+    let (first, last) = (start[rows.start] as usize, start[rows.end] as usize);
+    assert!(last <= runs.len());
+    assert!(runs[first..last]
+        .iter()
+        .all(|&[s, e]| s <= e && e as usize <= a.val.len()));
+}
+
 /// `y[k] = c A[i, i] x[i] − Σ A[i, j] x[j]` over the slots
 /// `later[later_start[i]..later_start[i + 1]]` of each row `i` of `rows` (`y[k]` for the `k`-th
 /// of them), subtracted in order from the first term (`c = diagonal`; zero when it is). After
@@ -106,17 +119,8 @@ pub(crate) fn later_residuals(
     y: &mut [DVec3],
     diagonal: f64,
 ) {
-    assert!(x.len() >= a.n() && rows.end < later_start.len() && y.len() >= rows.len());
-    // The runs of these rows only (a part of a level's rows per call).
-    let (first, last) = (
-        later_start[rows.start] as usize,
-        later_start[rows.end] as usize,
-    );
-    assert!(first <= last && last <= later.len());
-    assert!(later[first..last]
-        .iter()
-        .all(|&[start, end]| start <= end && end as usize <= a.val.len()));
-    assert!(later_start[rows.start..=rows.end].is_sorted());
+    assert!(x.len() >= a.n() && y.len() >= rows.len());
+    check_runs(a, later_start, later, &rows);
     #[cfg(target_arch = "x86_64")]
     if avx2_available() {
         // SAFETY: AVX2 is present (the slots are indexed with bounds checks).
@@ -173,17 +177,7 @@ pub(crate) unsafe fn update_rows_from_zero(
     omega: f64,
 ) {
     assert!(rows.end <= a.n() && inv_diag.len() >= a.n() && b.len() >= a.n());
-    assert!(rows.end < earlier_start.len());
-    // The runs of these rows only: a sweep calls this block by block.
-    let (first, last) = (
-        earlier_start[rows.start] as usize,
-        earlier_start[rows.end] as usize,
-    );
-    assert!(first <= last && last <= earlier.len());
-    assert!(earlier[first..last]
-        .iter()
-        .all(|&[start, end]| start <= end && end as usize <= a.val.len()));
-    assert!(earlier_start[rows.start..=rows.end].is_sorted());
+    check_runs(a, earlier_start, earlier, &rows);
     #[cfg(target_arch = "x86_64")]
     if avx2_available() {
         // SAFETY: AVX2 is present; the caller's contract, the lengths checked above.
