@@ -48,7 +48,8 @@
 //! nothing more. On the 128 × 128 drape (`newton_relaxed`'s setting, gravity 9.81003) one
 //! frame's max strain was 12.4 % (the hem at column 22, gone the frame after), which put the
 //! run's max over 1 % (1.02 %) with a 2.2 J energy spike; with `extra_steps = 1` five frames of
-//! 120 took one extra step and the run held max 0.69 %, rise 0.36 J (README, "Extra steps").
+//! 120 took one extra step and the run held max 0.69 %, rise 0.36 J (README, "Extra steps
+//! where the line search shortened one").
 
 //! ## The preconditioner
 //!
@@ -581,13 +582,7 @@ impl NewtonGroup {
         let fine = self.hierarchy.fine_mut();
         assert!(self.edge_force.len() == edges.len() && edge_slots.len() == edges.len());
         assert!(self.partial.len() >= chunks);
-        let vals_len = fine.val.len();
-        let pins = self.pin_stiffness.len();
-        assert!(edge_slots.iter().all(|s| if s[0] == u32::MAX {
-            (s[1] as usize) < pins
-        } else {
-            (s[0].max(s[1]) as usize) < vals_len
-        }));
+        let (vals_len, pins) = (fine.val.len(), self.pin_stiffness.len());
         let forces = SharedArray::new(&mut self.edge_force);
         let pin_stiffness = SharedArray::new(&mut self.pin_stiffness);
         let vals = SharedArray::new(&mut fine.val);
@@ -614,10 +609,17 @@ impl NewtonGroup {
                     });
                     energy += edge_energy;
                     let [ab, ba] = edge_slots[e];
-                    // SAFETY: every index is in bounds (asserted above: `e < edges.len()`, the
-                    // forces' length too, and the edge's slots or pin index); each part writes
-                    // its own edges, and each edge's slots (or pin stiffness) are its alone
-                    // (checked when the group was built).
+                    // Checked here, edge by edge, rather than in a serial pass over every edge
+                    // at each step.
+                    assert!(if ab == u32::MAX {
+                        (ba as usize) < pins
+                    } else {
+                        (ab.max(ba) as usize) < vals_len
+                    });
+                    // SAFETY: every index is in bounds (`e < edges.len()`, the forces' length
+                    // too, asserted above; the edge's slots or pin index, just asserted); each
+                    // part writes its own edges, and each edge's slots (or pin stiffness) are
+                    // its alone (checked when the group was built).
                     unsafe {
                         *forces.at(e) = f;
                         if ab == u32::MAX {
@@ -726,13 +728,16 @@ impl NewtonGroup {
         self.halvings += halvings.min(MAX_HALVINGS);
         if t > 0.0 {
             let (dof, step) = (&self.dof, &self.step);
-            assert!(dof.len() == step.len() && dof.iter().all(|&i| (i as usize) < p.x.len()));
+            assert!(dof.len() == step.len());
+            let particles = p.x.len();
             let x = SharedArray::new(p.x);
             team.for_ranges(dof.len(), PARALLEL_MIN_ROWS, &|range| {
                 for u in range {
+                    let i = dof[u] as usize;
+                    assert!(i < particles);
                     // SAFETY: in bounds (asserted); each particle is one unknown's (`dof` lists
                     // distinct particles) and each unknown one part's.
-                    unsafe { *x.at(dof[u] as usize) += step[u] * t };
+                    unsafe { *x.at(i) += step[u] * t };
                 }
             });
         }
