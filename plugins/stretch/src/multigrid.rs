@@ -942,27 +942,16 @@ fn sweep_slots(
 /// ([`update_rows_from_zero`]); the same bits as zeroing `x` and sweeping (up to the sign of
 /// an exact zero).
 fn forward_from_zero(team: TeamRef<'_>, level: &mut Level, omega: f64) {
-    let (a, inv_diag, b, blocks) = (&level.a, &level.inv_diag, &level.b, &level.blocks);
+    let (a, inv_diag, b) = (&level.a, &level.inv_diag, &level.b);
     let (start, earlier) = (&level.earlier_start, &level.earlier);
     assert!(level.x.len() >= a.n() && b.len() >= a.n() && inv_diag.len() >= a.n());
     let x = SharedArray::new(&mut level.x);
-    let sweep = |blocks: &[std::ops::Range<usize>]| {
-        for rows in blocks {
-            // SAFETY: `x` has `a.n()` vectors (asserted); the rows of this block are swept by
-            // this part alone, and the rows they read were swept before them: in this block,
-            // or in blocks of an earlier colour (joined), never in another block of this one.
-            unsafe { update_rows_from_zero(a, inv_diag, b, x, start, earlier, rows.clone(), omega) }
-        }
-    };
-    let parts = team.parts();
-    for (range, independent) in &level.colours {
-        let colour = &blocks[range.clone()];
-        if *independent && parts > 1 && a.n() >= PARALLEL_MIN_ROWS && colour.len() > 1 {
-            team.run(&|part| sweep(&colour[span(part, parts, colour.len())]));
-        } else {
-            sweep(colour);
-        }
-    }
+    in_sweep_order(team, a.n(), &level.blocks, &level.colours, false, &|rows| {
+        // SAFETY: `x` has `a.n()` vectors (asserted); the rows of this block are swept by this
+        // part alone, and the rows they read were swept before them: in this block, or in
+        // blocks of an earlier colour (joined), never in another block of this one.
+        unsafe { update_rows_from_zero(a, inv_diag, b, x, start, earlier, rows.clone(), omega) }
+    });
 }
 
 /// One block Gauss-Seidel sweep on the level's `A x = b`: colour by colour, each block of
@@ -971,22 +960,43 @@ fn forward_from_zero(team: TeamRef<'_>, level: &mut Level, omega: f64) {
 /// each block is swept by one part in a fixed order, so the result does not depend on the
 /// number of parts.
 fn gauss_seidel(team: TeamRef<'_>, level: &mut Level, backward: bool, omega: f64) {
-    let (a, inv_diag, b, blocks) = (&level.a, &level.inv_diag, &level.b, &level.blocks);
+    let (a, inv_diag, b) = (&level.a, &level.inv_diag, &level.b);
     assert!(level.x.len() >= a.n() && b.len() >= a.n() && inv_diag.len() >= a.n());
     let x = SharedArray::new(&mut level.x);
     // The row just swept (i − 1 forward, i + 1 backward) is the one term that waits for the
     // previous row's result: the slots are summed so that it comes last (columns in
     // decreasing order forward, increasing backward), which keeps the chain of dependent
     // operations from one row to the next short (`block_lanes::update_rows`).
-    // Backward, the blocks too are taken in reverse: the exact transpose of the forward sweep
-    // even where a colour's blocks are not independent (the overflow colour).
-    let sweep = |blocks: &[std::ops::Range<usize>]| {
-        let sweep_block = |rows: &std::ops::Range<usize>| {
-            // SAFETY: `x` has `a.n()` vectors (asserted); the rows of this block are swept by
-            // this part alone, and the rows they read are in this block or in blocks of
-            // another colour, which no part writes meanwhile.
+    in_sweep_order(
+        team,
+        a.n(),
+        &level.blocks,
+        &level.colours,
+        backward,
+        &|rows| {
+            // SAFETY: `x` has `a.n()` vectors (asserted); the rows of this block are swept by this
+            // part alone, and the rows they read are in this block or in blocks of another
+            // colour, which no part writes meanwhile.
             unsafe { update_rows(a, inv_diag, b, x, rows.clone(), backward, omega) }
-        };
+        },
+    );
+}
+
+/// Calls `sweep_block` on each block of rows of a level of `n` rows in a sweep's order:
+/// colour by colour, each colour's blocks in order, or everything reversed when `backward`
+/// (the exact transpose of the forward order, even where a colour's blocks are not
+/// independent: the overflow colour). The blocks of an independent colour are split over the
+/// team (from [`PARALLEL_MIN_ROWS`] rows on), each part taking a contiguous span of them in
+/// the same order, so each block is swept whole by one part whatever the number of parts.
+fn in_sweep_order(
+    team: TeamRef<'_>,
+    n: usize,
+    blocks: &[Rows],
+    colours: &[(Rows, bool)],
+    backward: bool,
+    sweep_block: &(dyn Fn(&Rows) + Sync),
+) {
+    let sweep = |blocks: &[Rows]| {
         if backward {
             blocks.iter().rev().for_each(sweep_block);
         } else {
@@ -994,18 +1004,18 @@ fn gauss_seidel(team: TeamRef<'_>, level: &mut Level, backward: bool, omega: f64
         }
     };
     let parts = team.parts();
-    let run = |(range, independent): &(std::ops::Range<usize>, bool)| {
+    let run = |(range, independent): &(Rows, bool)| {
         let colour = &blocks[range.clone()];
-        if *independent && parts > 1 && a.n() >= PARALLEL_MIN_ROWS && colour.len() > 1 {
+        if *independent && parts > 1 && n >= PARALLEL_MIN_ROWS && colour.len() > 1 {
             team.run(&|part| sweep(&colour[span(part, parts, colour.len())]));
         } else {
             sweep(colour);
         }
     };
     if backward {
-        level.colours.iter().rev().for_each(run);
+        colours.iter().rev().for_each(run);
     } else {
-        level.colours.iter().for_each(run);
+        colours.iter().for_each(run);
     }
 }
 
