@@ -618,6 +618,27 @@ fn galerkin_products_match(a: BlockMatrix, ps: Vec<Prolongation>) {
 }
 
 #[test]
+fn dot_in_fours_sums_four_lanes_in_a_fixed_order() {
+    // Integers: every order gives the exact sum, at every length (remainders 0..3).
+    for n in 0..13 {
+        let a: Vec<f64> = (0..n).map(|k| (k + 1) as f64).collect();
+        let b: Vec<f64> = (0..n).map(|k| (2 * k + 3) as f64).collect();
+        let exact: f64 = (0..n).map(|k| ((k + 1) * (2 * k + 3)) as f64).sum();
+        assert_eq!(dot_in_fours(&a, &b), exact, "n = {n}");
+        // The shorter length counts.
+        assert_eq!(dot_in_fours(&a, &b[..n / 2]), dot_in_fours(&a[..n / 2], &b));
+    }
+    // The order: lane sums (k mod 4), then (s0 + s1) + (s2 + s3). 1 + 1e16 − 1e16 in one
+    // lane, against a 1 in another, tells the orders apart.
+    let a = [1e16, 1.0, 0.0, 0.0, -1e16, 0.0, 0.0, 0.0, 1.0];
+    let b = [1.0; 9];
+    // Lane 0: (1e16 + −1e16) + 1 = 1; lane 1: 1 → 2. A plain left-to-right sum gives 1.
+    assert_eq!(dot_in_fours(&a, &b), 2.0);
+    let plain: f64 = a.iter().zip(&b).map(|(x, y)| x * y).sum();
+    assert_eq!(plain, 1.0);
+}
+
+#[test]
 fn cholesky_reproduces_the_matrix_and_refuses_an_indefinite_one() {
     let mut rng = Rng(5);
     let m = 24;
@@ -642,6 +663,21 @@ fn cholesky_reproduces_the_matrix_and_refuses_an_indefinite_one() {
     }
     let rel = worst / max_abs(&a);
     assert!(rel < 1e-13, "L Lᵀ − A: relative {rel:e}");
+
+    // The solve with the factor and its transpose: A x = b to rounding.
+    let mut lt = vec![f64::NAN; m * m];
+    transpose_factor(&l, &mut lt, m);
+    let want: Vec<f64> = (0..m).map(|_| rng.next()).collect();
+    let mut x: Vec<f64> = (0..m)
+        .map(|i| (0..m).map(|k| a[i * m + k] * want[k]).sum())
+        .collect();
+    cholesky_solve_in_place(&l, &lt, &mut x);
+    let err = x
+        .iter()
+        .zip(&want)
+        .map(|(x, w)| (x - w).abs())
+        .fold(0.0, f64::max);
+    assert!(err < 1e-11 * max_abs(&want), "solve: {err:e}");
 
     // Indefinite: eigenvalues 3 and −1; a negative pivot; a singular matrix; NaN.
     for (mut bad, what) in [
@@ -737,6 +773,68 @@ fn pcg_solves_the_cloth_hessian_to_1e_10() {
         capped.reduction > 0.0 && capped.reduction < 1.0,
         "{capped:?}"
     );
+}
+
+#[test]
+fn update_to_refreshes_the_first_levels_and_keeps_the_deeper_ones() {
+    // A cloth Hessian with turning levels, updated; then its fine matrix scaled by 1.5 and
+    // only the first levels refreshed. They match a hierarchy fully updated on the new
+    // matrix, bit for bit; the deeper levels and the coarsest factor keep the old values; and
+    // PCG still converges, within a few iterations of the fresh hierarchy.
+    let mut h = cloth_hessian(33, true, false);
+    assert!(h.update(serial()));
+    let levels = h.depth();
+    assert!(levels >= 4, "levels {:?}", h.sizes());
+    let old: Vec<Vec<DMat3>> = h.levels.iter().map(|l| l.a.val.clone()).collect();
+    let old_inv: Vec<Vec<DMat3>> = h.levels.iter().map(|l| l.inv_diag.clone()).collect();
+    let old_factor = h.dense.clone();
+    for v in h.fine_mut().val.iter_mut() {
+        *v *= 1.5;
+    }
+    let mut fresh = h.clone();
+    assert!(fresh.update(serial()));
+    let n = h.fine().n();
+    let mut rng = Rng(8);
+    let b = rng.vector(n);
+    let mut pcg = Pcg::new(n);
+    let mut x = vec![DVec3::ZERO; n];
+    let fresh_stats = pcg.solve(serial(), &mut fresh, &b, &mut x, 200, 1e-10, 0.0);
+    for refresh in [0, 1, 2] {
+        let mut some = h.clone();
+        assert!(some.update_to(serial(), refresh));
+        for (l, level) in some.levels.iter().enumerate() {
+            if l <= refresh {
+                assert_eq!(
+                    level.a.val, fresh.levels[l].a.val,
+                    "depth {refresh}: level {l}"
+                );
+                assert_eq!(level.inv_diag, fresh.levels[l].inv_diag);
+            } else {
+                assert_eq!(level.a.val, old[l], "depth {refresh}: level {l} changed");
+                assert_eq!(level.inv_diag, old_inv[l]);
+            }
+        }
+        assert_eq!(
+            some.dense, old_factor,
+            "depth {refresh}: the factor changed"
+        );
+        let stats = pcg.solve(serial(), &mut some, &b, &mut x, 200, 1e-10, 0.0);
+        let mut ax = vec![DVec3::ZERO; n];
+        some.fine().mul(serial(), &x, &mut ax);
+        let r: Vec<DVec3> = b.iter().zip(&ax).map(|(p, q)| *p - *q).collect();
+        assert!(norm(&r) < 1e-9 * norm(&b), "depth {refresh}: {stats:?}");
+        assert!(
+            stats.iterations <= fresh_stats.iterations + 5,
+            "depth {refresh}: {stats:?} against {fresh_stats:?}"
+        );
+    }
+    // A depth reaching the coarsest level is the full update, factor included.
+    let mut all = h.clone();
+    assert!(all.update_to(serial(), levels - 1));
+    for (l, level) in all.levels.iter().enumerate() {
+        assert_eq!(level.a.val, fresh.levels[l].a.val, "level {l}");
+    }
+    assert_eq!(all.dense, fresh.dense);
 }
 
 #[test]

@@ -50,6 +50,17 @@
 //! run's max over 1 % (1.02 %) with a 2.2 J energy spike; with `extra_steps = 1` five frames of
 //! 120 took one extra step and the run held max 0.69 %, rise 0.36 J (README, "Extra steps
 //! where the line search shortened one").
+//!
+//! ## Deep coarse operators kept through a substep
+//!
+//! Recomputing every level's Galerkin operator at every Newton step was about a quarter of a
+//! 128 × 128 drape's frame. With `refresh_depth = d`, a substep's second and later Newton
+//! steps recompute only the first `d` coarse levels ([`crate::multigrid::Hierarchy::update_to`]);
+//! the deeper ones and the coarsest factor keep those of the substep's first step, which
+//! always updates everything. On that drape (`newton_extra`'s setting) `d = 2` held both strain
+//! bounds in fifteen runs of fifteen (max 0.59–0.90 %, rise ≤ 0.42 J) with the updates at
+//! 4.2–4.6 against 5.7–6.1 ms a frame; `d = 1` made 0.59 J in the second frame, `d = 0` 3.6 J
+//! (README, "The deep coarse operators kept through a substep"). Default 64: every level.
 
 //! ## The preconditioner
 //!
@@ -212,6 +223,9 @@ pub struct NewtonParams {
     /// After a Newton step whose line search shortened it, up to this many more Newton steps
     /// in the same pass (0: none).
     pub extra_steps: i64,
+    /// At a substep's later Newton steps, how many coarse levels, finest first, get new
+    /// Galerkin operators; the deeper ones keep those of the substep's first step (64: all).
+    pub refresh_depth: i64,
 }
 
 impl NewtonParams {
@@ -236,7 +250,7 @@ impl NewtonParams {
                 .doc("CG stops early once its residual is this fraction of the initial one, or of the gradient at the substep's first pass")
                 .range(0.0, 1.0),
             ParamSpec::integer("coarsest", 16)
-                .doc("the multigrid coarsens until a level would have fewer free particles than this; the coarsest level (up to about 4 times as many) is factored densely at every Newton step")
+                .doc("the multigrid coarsens until a level would have fewer free particles than this; the coarsest level (up to about 4 times as many) is factored densely at every Newton step (at the first of each substep only, if refresh_depth does not reach it)")
                 .range(2.0, 256.0),
             ParamSpec::boolean("rotations", true)
                 .doc("each coarse particle of the multigrid carries a rotation about its current position as well as a translation, so that the coarse levels move the folded cloth's pieces rigidly (false: translations only, linear interpolation over the rest mesh, which leaves a cloth held up unless CG converges)"),
@@ -252,6 +266,9 @@ impl NewtonParams {
             ParamSpec::integer("extra_steps", 0)
                 .doc("after a Newton step whose line search had to shorten it (the step overshot somewhere, so the whole cloth moved only part of the way), up to this many more Newton steps in the same pass: a frame where a fold snaps through costs more instead of leaving its edges stretched (0: never)")
                 .range(0.0, 16.0),
+            ParamSpec::integer("refresh_depth", 64)
+                .doc("at a substep's second and later Newton steps, the number of coarse levels, finest first, whose Galerkin operators (and the coarsest level's dense factor, if it is among them) are recomputed for the new Hessian; the deeper levels keep those of the substep's first Newton step, a coarse correction for a slightly older Hessian that still makes the V-cycle a symmetric positive definite preconditioner (64: every level, always)")
+                .range(0.0, 64.0),
         ]
     }
 }
@@ -347,6 +364,9 @@ pub struct NewtonGroup {
     halvings: u32,
     extra_taken: u32,
     extra_steps: u32,
+    /// `refresh_depth`, and whether the next Newton step is the substep's first.
+    refresh_depth: usize,
+    first_step: bool,
     last_frame: u64,
     /// The same edges and springs as a `stretch` group, for the `start_passes` (`None`
     /// without).
@@ -501,6 +521,8 @@ impl NewtonGroup {
             halvings: 0,
             extra_taken: 0,
             extra_steps: p.extra_steps as u32,
+            refresh_depth: p.refresh_depth as usize,
+            first_step: true,
             last_frame: u64::MAX,
             start,
         })
@@ -687,7 +709,13 @@ impl NewtonGroup {
         let p = ctx.particles();
         let f0 = self.assemble(team, p.x, p.inv_mass, h);
         self.hierarchy.refit(p.x);
-        if !self.hierarchy.update(team) {
+        let depth = if self.first_step {
+            usize::MAX
+        } else {
+            self.refresh_depth
+        };
+        self.first_step = false;
+        if !self.hierarchy.update_to(team, depth) {
             return Err(PluginError::new(
                 PluginError::FAILED,
                 "",
@@ -777,6 +805,7 @@ impl ConstraintGroup for NewtonGroup {
             *t = x[i as usize];
         }
         self.substep_gradient = f64::NAN;
+        self.first_step = true;
         if let Some((group, passes)) = self.start.as_mut() {
             group.begin_substep(ctx)?;
             for _ in 0..*passes {
