@@ -97,7 +97,7 @@ VARIANT_SETS = {
                      "constraints.0.params.extra_steps=1"],
     # `newton_extra` with `refresh_depth = 2`: at a substep's later Newton steps only the first
     # two coarse levels get new Galerkin operators (the updates: 4.2-4.6 against 5.7-6.1 ms a
-    # frame on 2 threads). At N = 128, 15 runs: max 0.59-0.90 % (0 over 1 %), rise <= 0.42 J
+    # frame on 2 threads). At N = 128, 15 runs: max 0.58-0.94 % (0 over 1 %), rise <= 0.32 J
     # (README, "The deep coarse operators kept through a substep").
     "newton_refresh": ["constraints.0.params.compliance=1e-6", "constraints.0.params.compression_compliance=1e-6",
                        "constraints.0.params.cg_iterations=3", "constraints.0.params.start_passes=10",

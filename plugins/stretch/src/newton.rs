@@ -56,10 +56,12 @@
 //! Recomputing every level's Galerkin operator at every Newton step was about a quarter of a
 //! 128 × 128 drape's frame. With `refresh_depth = d`, a substep's second and later Newton
 //! steps recompute only the first `d` coarse levels ([`crate::multigrid::Hierarchy::update_to`]);
-//! the deeper ones and the coarsest factor keep those of the substep's first step, which
-//! always updates everything. On that drape (`newton_extra`'s setting) `d = 2` held both strain
-//! bounds in fifteen runs of fifteen (max 0.59–0.90 %, rise ≤ 0.42 J) with the updates at
-//! 4.2–4.6 against 5.7–6.1 ms a frame; `d = 1` made 0.59 J in the second frame, `d = 0` 3.6 J
+//! the deeper ones and the coarsest factor keep those of the latest full update: the
+//! substep's first step always updates everything, and so does a step after one the line
+//! search shortened (there the Hessian changes fast: without that rule `d = 1` made 0.59 J in
+//! the drape's second frame, when the cloth starts to fall). On that drape (`newton_extra`'s
+//! setting) `d = 2` held both strain bounds in fifteen runs of fifteen (max 0.58–0.94 %, rise
+//! ≤ 0.32 J) with the updates at 4.2–4.6 against 5.7–6.1 ms a frame; `d = 1` went over in two
 //! (README, "The deep coarse operators kept through a substep"). Default 64: every level.
 
 //! ## The preconditioner
@@ -178,8 +180,9 @@
 //! length, the length itself, m) and the springs' energy `Σ ½ k C²` (J). `report` gives the
 //! last Newton step's CG iterations (`cg_iterations`) and residual reduction
 //! (`cg_reduction`), the line search's halvings in the frame so far (`halvings`), the extra
-//! steps taken in the frame so far (`extra_steps`) and the hierarchy's levels and operator
-//! complexity.
+//! steps taken in the frame so far (`extra_steps`), the Newton steps in the frame so far whose
+//! update kept the deep coarse levels (`partial_updates`, `refresh_depth`) and the hierarchy's
+//! levels and operator complexity.
 
 use nucleus_sdk::params::{self, ParamSpec};
 use nucleus_sdk::prelude::*;
@@ -267,7 +270,7 @@ impl NewtonParams {
                 .doc("after a Newton step whose line search had to shorten it (the step overshot somewhere, so the whole cloth moved only part of the way), up to this many more Newton steps in the same pass: a frame where a fold snaps through costs more instead of leaving its edges stretched (0: never)")
                 .range(0.0, 16.0),
             ParamSpec::integer("refresh_depth", 64)
-                .doc("at a substep's second and later Newton steps, the number of coarse levels, finest first, whose Galerkin operators (and the coarsest level's dense factor, if it is among them) are recomputed for the new Hessian; the deeper levels keep those of the substep's first Newton step, a coarse correction for a slightly older Hessian that still makes the V-cycle a symmetric positive definite preconditioner (64: every level, always)")
+                .doc("at a substep's second and later Newton steps, the number of coarse levels, finest first, whose Galerkin operators (and the coarsest level's dense factor, if it is among them) are recomputed for the new Hessian; the deeper levels keep those of the latest full update (a substep's first step, and any step after one the line search shortened, update every level): a coarse correction for a slightly older Hessian that still makes the V-cycle a symmetric positive definite preconditioner (64: every level, always). The stats' partial_updates counts the steps that kept levels")
                 .range(0.0, 64.0),
         ]
     }
@@ -363,10 +366,13 @@ pub struct NewtonGroup {
     /// This frame's line-search halvings and extra Newton steps taken (the report's).
     halvings: u32,
     extra_taken: u32,
+    /// Newton steps in the frame so far whose update kept the deep coarse levels.
+    partial_updates: u32,
     extra_steps: u32,
-    /// `refresh_depth`, and whether the next Newton step is the substep's first.
+    /// `refresh_depth`, and whether the next Newton step updates every level regardless: the
+    /// substep's first, or one after a step the line search shortened.
     refresh_depth: usize,
-    first_step: bool,
+    refresh_all: bool,
     last_frame: u64,
     /// The same edges and springs as a `stretch` group, for the `start_passes` (`None`
     /// without).
@@ -520,9 +526,10 @@ impl NewtonGroup {
             substep_gradient: f64::NAN,
             halvings: 0,
             extra_taken: 0,
+            partial_updates: 0,
             extra_steps: p.extra_steps as u32,
             refresh_depth: p.refresh_depth as usize,
-            first_step: true,
+            refresh_all: true,
             last_frame: u64::MAX,
             start,
         })
@@ -709,12 +716,15 @@ impl NewtonGroup {
         let p = ctx.particles();
         let f0 = self.assemble(team, p.x, p.inv_mass, h);
         self.hierarchy.refit(p.x);
-        let depth = if self.first_step {
+        let depth = if self.refresh_all {
             usize::MAX
         } else {
             self.refresh_depth
         };
-        self.first_step = false;
+        if !self.refresh_all && depth.saturating_add(1) < self.hierarchy.depth() {
+            self.partial_updates += 1;
+        }
+        self.refresh_all = false;
         if !self.hierarchy.update_to(team, depth) {
             return Err(PluginError::new(
                 PluginError::FAILED,
@@ -754,6 +764,11 @@ impl NewtonGroup {
         }
         self.partial = partial;
         self.halvings += halvings.min(MAX_HALVINGS);
+        // A shortened step: the Hessian is changing fast here, so the next step updates every
+        // level (kept deep operators made 0.59 J at the drape's second frame otherwise).
+        if halvings > 0 {
+            self.refresh_all = true;
+        }
         if t > 0.0 {
             let (dof, step) = (&self.dof, &self.step);
             assert!(dof.len() == step.len());
@@ -805,7 +820,7 @@ impl ConstraintGroup for NewtonGroup {
             *t = x[i as usize];
         }
         self.substep_gradient = f64::NAN;
-        self.first_step = true;
+        self.refresh_all = true;
         if let Some((group, passes)) = self.start.as_mut() {
             group.begin_substep(ctx)?;
             for _ in 0..*passes {
@@ -824,6 +839,7 @@ impl ConstraintGroup for NewtonGroup {
             self.last_frame = ctx.frame;
             self.halvings = 0;
             self.extra_taken = 0;
+            self.partial_updates = 0;
         }
         let mut extra = 0;
         loop {
@@ -848,6 +864,7 @@ impl ConstraintGroup for NewtonGroup {
         out.push(("cg_reduction".into(), self.last.reduction));
         out.push(("halvings".into(), self.halvings as f64));
         out.push(("extra_steps".into(), self.extra_taken as f64));
+        out.push(("partial_updates".into(), self.partial_updates as f64));
         out.push(("levels".into(), self.hierarchy.depth() as f64));
         out.push((
             "operator_complexity".into(),

@@ -715,7 +715,8 @@ fn refresh_depth_changes_only_a_substeps_later_steps_and_they_still_converge() {
     // A wobbled 17 × 17 cloth (levels 0..3 at the default coarsest 16), stretched by 20 %.
     // The first Newton step of a substep updates every level whatever `refresh_depth` says:
     // its bits are those of the default. Later steps keep the deeper coarse operators of the
-    // first step; the steps still converge, to the default's positions (CG to 1e-10 here).
+    // latest full update (`partial_updates` counts them: every step after a whole one); the
+    // steps still converge, to the default's positions (CG to 1e-10 here).
     let mesh = grid(16);
     let h = 1.0 / 60.0;
     let start = stretched_by(&mesh, 1.2, 0.3);
@@ -727,9 +728,28 @@ fn refresh_depth_changes_only_a_substeps_later_steps_and_they_still_converge() {
         let mut state = State::with_substep(&mesh, start.clone(), h);
         state.begin(&mut group);
         let mut after = Vec::new();
-        for _ in 0..6 {
+        let mut halved_before = false;
+        let mut expected_partial = 0.0;
+        for pass in 0..6 {
+            let halvings = state.stat(&group, "halvings");
             state.project(&mut group);
+            if pass > 0 && !halved_before && depth < 2 {
+                expected_partial += 1.0;
+            }
+            halved_before = state.stat(&group, "halvings") > halvings;
+            assert_eq!(
+                state.stat(&group, "partial_updates"),
+                expected_partial,
+                "refresh_depth {depth}, pass {pass}"
+            );
             after.push((state.x.clone(), state.residual(&group)));
+        }
+        // The test must see both: steps that kept levels, and a full update after a halving.
+        if depth < 2 {
+            assert!(
+                expected_partial > 0.0 && expected_partial < 5.0,
+                "refresh_depth {depth}: {expected_partial} partial updates in 5 later steps"
+            );
         }
         (after, state.stat(&group, "levels"))
     };
