@@ -57,7 +57,12 @@
 //! 0.19 ms, and 0.53 ms right after 8 MB of other data were touched (0.69 ms after 16 MB, 0.89
 //! ms after 32 MB: this VM's share of the 32 MB cache is small); inside the V-cycle it takes
 //! 0.6–0.7 ms, a forward sweep 0.35–0.4 ms. So the fine level's passes read their blocks from
-//! memory, yet a third fewer bytes bought nothing measurable.
+//! memory, yet a third fewer bytes bought nothing measurable. Nor did less than half
+//! (2026-11-28): the fine level's springs as four doubles `[u, c]` a block, `−(u uᵀ + c I)`,
+//! read by every fine pass with the product `u (u·x) + c x` in the lanes, made the forward
+//! sweep and its residual 1.15–1.5 times slower and CG 1.07–1.15 times (a microbenchmark
+//! had given 0.55–0.85): once in cache, these passes wait on their arithmetic and the
+//! row-to-row chain (`bench/README.md`, "The stop after").
 
 use glam::{DMat3, DVec3};
 use nucleus_sdk::lanes::avx2_available;
