@@ -227,7 +227,8 @@ pub struct NewtonParams {
     /// in the same pass (0: none).
     pub extra_steps: i64,
     /// At a substep's later Newton steps, how many coarse levels, finest first, get new
-    /// Galerkin operators; the deeper ones keep those of the substep's first step (64: all).
+    /// Galerkin operators; the deeper ones keep those of the latest full update (the
+    /// substep's first step, or one after a step the line search shortened; 64: all).
     pub refresh_depth: i64,
 }
 
@@ -716,15 +717,12 @@ impl NewtonGroup {
         let p = ctx.particles();
         let f0 = self.assemble(team, p.x, p.inv_mass, h);
         self.hierarchy.refit(p.x);
-        let depth = if self.refresh_all {
-            usize::MAX
-        } else {
-            self.refresh_depth
-        };
-        if !self.refresh_all && depth.saturating_add(1) < self.hierarchy.depth() {
-            self.partial_updates += 1;
-        }
+        // Deep levels are kept only at a later step, and only if there are levels past the depth.
+        let keep =
+            !self.refresh_all && self.refresh_depth.saturating_add(1) < self.hierarchy.depth();
         self.refresh_all = false;
+        self.partial_updates += u32::from(keep);
+        let depth = if keep { self.refresh_depth } else { usize::MAX };
         if !self.hierarchy.update_to(team, depth) {
             return Err(PluginError::new(
                 PluginError::FAILED,
