@@ -630,10 +630,9 @@ impl Level {
 pub struct Hierarchy {
     levels: Vec<Level>,
     /// The coarsest operator as a dense `3n × 3n` matrix, overwritten by its Cholesky factor
-    /// (lower triangle, row-major).
+    /// (lower triangle, row-major) and that factor's transpose (upper triangle, for the
+    /// backward substitution; [`mirror_factor`]).
     dense: Vec<f64>,
-    /// The factor's transpose (upper triangle, row-major), for the backward substitution.
-    dense_t: Vec<f64>,
     /// The coarsest level's right-hand side and solution as `3n` numbers.
     dense_x: Vec<f64>,
     /// The sweeps' relaxation weight `ω` ([`set_relaxation`](Self::set_relaxation)).
@@ -736,7 +735,6 @@ impl Hierarchy {
         Hierarchy {
             levels,
             dense: vec![0.0; 9 * n * n],
-            dense_t: vec![0.0; 9 * n * n],
             dense_x: vec![0.0; 3 * n],
             relaxation: 1.0,
         }
@@ -842,7 +840,7 @@ impl Hierarchy {
             }
         }
         let ok = cholesky_in_place(d, m);
-        transpose_factor(d, &mut self.dense_t, m);
+        mirror_factor(d, m);
         ok
     }
 
@@ -874,7 +872,7 @@ impl Hierarchy {
             for (k, b) in level.b.iter().enumerate() {
                 x[3 * k..3 * k + 3].copy_from_slice(&b.to_array());
             }
-            cholesky_solve_in_place(&self.dense, &self.dense_t, x);
+            cholesky_solve_in_place(&self.dense, x);
             for (k, out) in level.x.iter_mut().enumerate() {
                 *out = DVec3::from_slice(&x[3 * k..3 * k + 3]);
             }
@@ -1098,31 +1096,32 @@ pub fn cholesky_in_place(a: &mut [f64], m: usize) -> bool {
     true
 }
 
-/// The transpose of the factor `l` of [`cholesky_in_place`] into the upper triangle of `lt`
-/// (row `i` of `lt` holds column `i` of `L` from the diagonal on), so that the backward
-/// substitution reads rows too.
-pub fn transpose_factor(l: &[f64], lt: &mut [f64], m: usize) {
-    assert!(l.len() >= m * m && lt.len() >= m * m);
+/// Copies the factor `L` of [`cholesky_in_place`] into the strict upper triangle of the same
+/// matrix as `Lᵀ` (row `i` then holds column `i` of `L` past the diagonal), which the
+/// factorisation leaves unused, so that the backward substitution reads rows too.
+pub fn mirror_factor(a: &mut [f64], m: usize) {
+    assert!(a.len() >= m * m);
     for i in 0..m {
-        for k in i..m {
-            lt[i * m + k] = l[k * m + i];
+        for k in i + 1..m {
+            a[i * m + k] = a[k * m + i];
         }
     }
 }
 
 /// Solves `L Lᵀ x = b` in place (`x` holds `b` on entry) with the factor `l` of
-/// [`cholesky_in_place`] and its transpose `lt` ([`transpose_factor`]): forward then backward
-/// substitution, each entry's sum a [`dot_in_fours`] of a row and the solved entries.
-pub fn cholesky_solve_in_place(l: &[f64], lt: &[f64], x: &mut [f64]) {
+/// [`cholesky_in_place`], its transpose in the upper triangle ([`mirror_factor`]): forward
+/// then backward substitution, each entry's sum a [`dot_in_fours`] of a row and the solved
+/// entries.
+pub fn cholesky_solve_in_place(l: &[f64], x: &mut [f64]) {
     let m = x.len();
-    assert!(l.len() >= m * m && lt.len() >= m * m);
+    assert!(l.len() >= m * m);
     for i in 0..m {
         let (solved, rest) = x.split_at_mut(i);
         rest[0] = (rest[0] - dot_in_fours(&l[i * m..i * m + i], solved)) / l[i * m + i];
     }
     for i in (0..m).rev() {
         let (head, solved) = x.split_at_mut(i + 1);
-        head[i] = (head[i] - dot_in_fours(&lt[i * m + i + 1..(i + 1) * m], solved)) / l[i * m + i];
+        head[i] = (head[i] - dot_in_fours(&l[i * m + i + 1..(i + 1) * m], solved)) / l[i * m + i];
     }
 }
 
