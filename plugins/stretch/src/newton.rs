@@ -230,6 +230,9 @@ pub struct NewtonParams {
     /// Galerkin operators; the deeper ones keep those of the latest full update (the
     /// substep's first step, or one after a step the line search shortened; 64: all).
     pub refresh_depth: i64,
+    /// Whether each level of the V-cycle sweeps before its coarse correction as well as after
+    /// it (`false`: after only, a cheaper V(0,1) cycle with flexible CG).
+    pub pre_smoothing: bool,
 }
 
 impl NewtonParams {
@@ -273,6 +276,8 @@ impl NewtonParams {
             ParamSpec::integer("refresh_depth", 64)
                 .doc("at a substep's second and later Newton steps, the number of coarse levels, finest first, whose Galerkin operators (and the coarsest level's dense factor, if it is among them) are recomputed for the new Hessian; the deeper levels keep those of the latest full update (a substep's first step, and any step after one the line search shortened, update every level): a coarse correction for a slightly older Hessian that still makes the V-cycle a symmetric positive definite preconditioner (64: every level, always). The stats' partial_updates counts the steps that kept levels")
                 .range(0.0, 64.0),
+            ParamSpec::boolean("pre_smoothing", true)
+                .doc("each level of the V-cycle sweeps forward before its coarse correction as well as backward after it (a symmetric V(1,1) cycle); false: only after it (V(0,1)), which restricts the level's right-hand side as it is and reads each level's matrix about once a cycle instead of twice, with CG's step direction in the flexible form the unsymmetric cycle needs. On the stiff 128 x 128 drape (3 CG iterations a Newton step, relaxation 0.7) false took 0.83 of the time a frame and held both strain bounds in 15 of 15 runs under perturbed gravity, with a larger energy rise (0.58-0.85 J against 0.22-0.32 J)"),
         ]
     }
 }
@@ -500,6 +505,7 @@ impl NewtonGroup {
             hierarchy: {
                 let mut hierarchy = Hierarchy::new(fine, prolongations);
                 hierarchy.set_relaxation(p.relaxation);
+                hierarchy.set_pre_smoothing(p.pre_smoothing);
                 hierarchy
             },
             pcg: Pcg::new(n),
