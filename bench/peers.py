@@ -60,6 +60,8 @@ VARIANTS = {
     "newton_extra": "",
     # And the deep coarse operators kept through a substep (`refresh_depth = 2`).
     "newton_refresh": "",
+    # And V(0,1) cycles with flexible CG (`pre_smoothing = false`).
+    "newton_post": "",
 }
 # Variants that start from another scene than --scene (paths from the repository root).
 VARIANT_SCENES = {
@@ -67,6 +69,7 @@ VARIANT_SCENES = {
     "newton_relaxed": os.path.join("scenes", "drape_newton.toml"),
     "newton_extra": os.path.join("scenes", "drape_newton.toml"),
     "newton_refresh": os.path.join("scenes", "drape_newton.toml"),
+    "newton_post": os.path.join("scenes", "drape_newton.toml"),
 }
 # Scene settings a variant changes, as `nucleus run --set` arguments.
 VARIANT_SETS = {
@@ -103,6 +106,15 @@ VARIANT_SETS = {
                        "constraints.0.params.cg_iterations=3", "constraints.0.params.start_passes=10",
                        "constraints.0.params.plain_levels=1", "constraints.0.params.relaxation=0.7",
                        "constraints.0.params.extra_steps=1", "constraints.0.params.refresh_depth=2"],
+    # `newton_refresh` with `pre_smoothing = false`: each level of the V-cycle sweeps only after
+    # its coarse correction (a V(0,1) cycle, CG's beta in the flexible form), reading each
+    # level's matrix about once a cycle instead of twice (README, "V-cycles that sweep only on
+    # the way up").
+    "newton_post": ["constraints.0.params.compliance=1e-6", "constraints.0.params.compression_compliance=1e-6",
+                    "constraints.0.params.cg_iterations=3", "constraints.0.params.start_passes=10",
+                    "constraints.0.params.plain_levels=1", "constraints.0.params.relaxation=0.7",
+                    "constraints.0.params.extra_steps=1", "constraints.0.params.refresh_depth=2",
+                    "constraints.0.params.pre_smoothing=false"],
 }
 
 
@@ -543,7 +555,8 @@ def main():
         "after 10 Gauss-Seidel passes a substep (`nucleus+newton_relaxed`: 3 CG iterations, the V-cycle's "
         "sweeps under-relaxed, `relaxation = 0.7`; `nucleus+newton_extra`: that and `extra_steps = 1`, one more "
         "Newton step after a step the line search shortened; `nucleus+newton_refresh`: that and `refresh_depth = 2`, "
-        "the deep coarse operators kept through a substep); "
+        "the deep coarse operators kept through a substep; `nucleus+newton_post`: that and `pre_smoothing = false`, "
+        "V(0,1) cycles with flexible CG); "
         "no bending. Peers: "
         + ("their recorded sweeps (`PEERS/raw/*.jsonl`, 1 thread unless noted; `recorded clean` rows were "
            "re-run with nothing else running)" if a.recorded else "")

@@ -31,8 +31,12 @@
 //!   same bits as zeroing and sweeping, and in process 0.82 of the fine level's forward sweep
 //!   and 0.62–0.65 of the coarser levels' (one thread, 2026-11-28; the fine level's waits for
 //!   memory, its whole rows prefetched either way).
+//!   Without pre-smoothing ([`Hierarchy::set_pre_smoothing`]) each level skips the forward
+//!   sweep and its residual: it restricts its right-hand side as it is, sets `x` to the
+//!   prolonged coarse correction and sweeps backward (a V(0,1) cycle, not symmetric), reading
+//!   its matrix about once a cycle instead of twice.
 //! * [`Pcg`] — conjugate gradients from zero with that preconditioner, at most a given number
-//!   of iterations.
+//!   of iterations; with a V(0,1) cycle, `β` in the flexible (Polak–Ribière) form.
 //!
 //! **Threads.** The products, the Gauss-Seidel sweeps, the restrictions ([`Restriction`]:
 //! `Pᵀ` by coarse rows), CG's vector updates, the Galerkin update and the diagonal inverses

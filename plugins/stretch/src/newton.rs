@@ -63,6 +63,26 @@
 //! setting) `d = 2` held both strain bounds in fifteen runs of fifteen (max 0.58–0.94 %, rise
 //! ≤ 0.32 J) with the updates at 4.2–4.6 against 5.7–6.1 ms a frame; `d = 1` went over in two
 //! (README, "The deep coarse operators kept through a substep"). Default 64: every level.
+//!
+//! ## V-cycles that sweep only on the way up
+//!
+//! With `pre_smoothing = false` each level of the V-cycle skips its forward sweep and the
+//! residual after it: it restricts its right-hand side as it is, takes the prolonged coarse
+//! correction as its `x` and sweeps backward from there (a V(0,1) cycle,
+//! [`crate::multigrid::Hierarchy::set_pre_smoothing`]). A level then reads its matrix about once
+//! a cycle instead of twice (the forward sweep over the blocks before each row, the residual
+//! over those after it, the backward sweep over all). The cycle is no longer symmetric, so CG
+//! takes `β` in the flexible form, `−α (z·A p)/(z·r)_old`, one more dot product an iteration.
+//! Run to a tight tolerance it needs about twice the iterations (a folded 33 × 33 cloth's
+//! Hessian to 1e-11: 69 against 31), but its first three take off nearly as much (0.19 against
+//! 0.15 of the residual), and three are what the drape's Newton steps use: on the 128 × 128
+//! drape (`newton_refresh`'s setting, the `newton_post` variant) both strain bounds held in
+//! fifteen runs of fifteen (max 0.66–0.93 %, RMS 0.026–0.032 %) in 0.83 of the time at the 10th
+//! percentile of frames on 2 threads, with a larger energy rise, 0.58–0.85 J against 0.22–0.32
+//! J (a swing between 0.6 and 0.9 s gains it back; none over 1 J; at N = 32 and 64 no larger
+//! than the symmetric cycle's). With the sweeps alone (`relaxation = 1`) or four CG iterations
+//! it did no better in single runs. Default `true`: the symmetric V(1,1) cycle (README,
+//! "V-cycles that sweep only on the way up").
 
 //! ## The preconditioner
 //!
