@@ -24,6 +24,23 @@ fn group(mesh: &Mesh, params: &str) -> Result<GroupBox, PluginError> {
     })
 }
 
+/// The group of `mesh` with `params` and a state at `start` whose substep `h` has begun: the
+/// setup of the tests that drive one substep pass by pass.
+fn begun(mesh: &Mesh, params: &str, start: &[[f64; 3]], h: f64) -> (GroupBox, State) {
+    let mut group = group(mesh, params).expect("group");
+    let mut state = State::with_substep(mesh, start.to_vec(), h);
+    state.begin(&mut group);
+    (group, state)
+}
+
+/// The largest distance between the matching positions of `a` and `b` (m).
+fn max_distance(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(p, q)| DVec3::from_array(*p).distance(DVec3::from_array(*q)))
+        .fold(0.0, f64::max)
+}
+
 fn p(a: [f64; 3]) -> DVec3 {
     DVec3::from_array(a)
 }
@@ -671,9 +688,7 @@ fn a_step_the_line_search_shortened_is_followed_by_extra_steps_in_the_same_pass(
         let params = format!(
             r#"{{"compliance": 1e-6, "compression_compliance": 1e-6, "cg_iterations": 1, "extra_steps": {extra}}}"#
         );
-        let mut group = group(&mesh, &params).expect("group");
-        let mut state = State::with_substep(&mesh, start.clone(), h);
-        state.begin(&mut group);
+        let (mut group, mut state) = begun(&mesh, &params, &start, h);
         let mut after = Vec::new();
         for _ in 0..passes {
             state.project(&mut group);
@@ -725,9 +740,7 @@ fn refresh_depth_changes_only_a_substeps_later_steps_and_they_still_converge() {
         let params = format!(
             r#"{{"compliance": 1e-6, "compression_compliance": 1e-6, "cg_iterations": 200, "cg_tolerance": 1e-10, "refresh_depth": {depth}}}"#
         );
-        let mut group = group(&mesh, &params).expect("group");
-        let mut state = State::with_substep(&mesh, start.clone(), h);
-        state.begin(&mut group);
+        let (mut group, mut state) = begun(&mesh, &params, &start, h);
         let mut after = Vec::new();
         let mut halved_before = false;
         let mut expected_partial = 0.0;
@@ -767,14 +780,7 @@ fn refresh_depth_changes_only_a_substeps_later_steps_and_they_still_converge() {
             "refresh_depth {d}: the second step ignored the depth"
         );
         // Both converge to the substep's solution (the strain that stays is the inertia's).
-        let apart = |k: usize| {
-            some[k]
-                .0
-                .iter()
-                .zip(&all[k].0)
-                .map(|(p, q)| DVec3::from_array(*p).distance(DVec3::from_array(*q)))
-                .fold(0.0, f64::max)
-        };
+        let apart = |k: usize| max_distance(&some[k].0, &all[k].0);
         println!(
             "refresh_depth {d}: apart after steps 2..6 {:?} m; strain {:?} against {:?}",
             (1..6).map(apart).collect::<Vec<_>>(),
@@ -801,9 +807,7 @@ fn without_pre_smoothing_the_steps_converge_to_the_same_substep_solution() {
         let params = format!(
             r#"{{"compliance": 1e-6, "compression_compliance": 1e-6, {cg}, "relaxation": 0.7, "pre_smoothing": {pre}}}"#
         );
-        let mut group = group(&mesh, &params).expect("group");
-        let mut state = State::with_substep(&mesh, start.clone(), h);
-        state.begin(&mut group);
+        let (mut group, mut state) = begun(&mesh, &params, &start, h);
         let mut after = Vec::new();
         for _ in 0..6 {
             state.project(&mut group);
@@ -813,14 +817,8 @@ fn without_pre_smoothing_the_steps_converge_to_the_same_substep_solution() {
     };
     let exact = r#""cg_iterations": 200, "cg_tolerance": 1e-10"#;
     let (both, after) = (run(true, exact), run(false, exact));
-    let apart = |a: &[[f64; 3]], b: &[[f64; 3]]| {
-        a.iter()
-            .zip(b)
-            .map(|(p, q)| DVec3::from_array(*p).distance(DVec3::from_array(*q)))
-            .fold(0.0, f64::max)
-    };
     assert_ne!(both[0].0, after[0].0, "the option changed nothing");
-    let end = apart(&both[5].0, &after[5].0);
+    let end = max_distance(&both[5].0, &after[5].0);
     println!(
         "exact steps: {end:e} m apart after six; strain {} against {}",
         after[5].1, both[5].1
