@@ -3,12 +3,13 @@
 source of the "Shipped scenes" table of docs/performance.md (bench/perf_page.py).
 
 usage: python3 bench/scenes.py [--frames N] [--threads 1,2] [--out docs/bench/scenes.csv]
-                               [SCENE[:KEY=VALUE[,KEY=VALUE...]] ...]
+                               [SCENE[:KEY=VALUE[;KEY=VALUE...]] ...]
 
 Needs the release build (`cargo xtask plugins --release`). Each scene runs once per thread count
 with `nucleus run --frames N --threads T`; the time is the mean `wall_s` (the step alone, output
 excluded) of frames 2..N in its stats.csv. Without scenes, the default list below. A scene may
-carry `--set` overrides after a colon: `scenes/drape.toml:objects.0.grid.resolution=[128,128]`.
+carry `--set` overrides after a colon, separated by `;`:
+`scenes/drape.toml:objects.0.grid.resolution=[128,128]`.
 Python 3 standard library only.
 """
 
@@ -61,11 +62,12 @@ def main():
     if not os.path.exists(host):
         sys.exit(f"{host} is missing: run `cargo xtask plugins --release` first")
     work = os.path.join(root, "target", "bench-scenes")
+    load_before = os.getloadavg()[0]
     rows = []
     for spec in args.scenes:
         path, _, sets = spec.partition(":")
         name = os.path.splitext(os.path.basename(path))[0]
-        overrides = [s for s in sets.split(",") if s] if sets else []
+        overrides = [s for s in sets.split(";") if s] if sets else []
         for t in [int(x) for x in args.threads.split(",")]:
             out = os.path.join(work, f"{name}-{t}")
             shutil.rmtree(out, ignore_errors=True)
@@ -90,7 +92,8 @@ def main():
     meta = {
         "date": datetime.date.today().isoformat(),
         "commit": git(root, "rev-parse", "--short", "HEAD") + dirty,
-        "machine": f"{cpu_name()}, {os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f}",
+        "machine": f"{cpu_name()}, {os.cpu_count()} cores, load average {load_before:.1f} before the runs "
+        f"and {os.getloadavg()[0]:.1f} after (other work on the machine slows every figure)",
         "threads": "threads as listed",
         "command": "python3 bench/scenes.py " + " ".join(sys.argv[1:]),
     }
