@@ -74,42 +74,32 @@ VARIANT_SCENES = {
 # Scene settings a variant changes, as `nucleus run --set` arguments.
 VARIANT_SETS = {
     "hierarchy+edges3": ["constraints.0.importance=3"],
-    # Springs of compliance 1e-6 m/N (the scene's 1e-8 lock its multigrid's coarse space:
-    # README, "Softer springs, cheaper Newton steps"), 4 CG iterations a Newton step, after 10
-    # Gauss-Seidel passes a substep, the first coarse level translating only (half a V-cycle's
-    # work): at N = 128 the cheapest setting measured to hold both strain bounds and move the
-    # drape right.
+    # Springs of compliance 1e-6 m/N (the scene's 1e-8 lock its multigrid's coarse space), 4 CG
+    # iterations a Newton step, after 10 Gauss-Seidel passes a substep, the first coarse level
+    # translating only (docs/decisions/newton-soft-springs.md).
     "newton": ["constraints.0.params.compliance=1e-6", "constraints.0.params.compression_compliance=1e-6",
                "constraints.0.params.cg_iterations=4", "constraints.0.params.start_passes=10",
                "constraints.0.params.plain_levels=1"],
-    # The V-cycle's Gauss-Seidel sweeps under-relaxed (ω = 0.7) and 3 CG iterations a step: at
-    # N = 128 both bounds in 15 of 15 runs under gravity perturbed by 1e-8..5e-6 of itself (max
-    # 0.70-0.90 %), where `newton` misses max <= 1 % in 3 of 15 (README, "Under-relaxed
-    # sweeps"); at N = 32 it makes 0.6-1.1 J of energy where `newton` makes none.
+    # The V-cycle's Gauss-Seidel sweeps under-relaxed (ω = 0.7) and 3 CG iterations a step
+    # (docs/decisions/newton-relaxation.md).
     "newton_relaxed": ["constraints.0.params.compliance=1e-6", "constraints.0.params.compression_compliance=1e-6",
                        "constraints.0.params.cg_iterations=3", "constraints.0.params.start_passes=10",
                        "constraints.0.params.plain_levels=1", "constraints.0.params.relaxation=0.7"],
-    # `newton_relaxed` with `extra_steps = 1`: a fold snapping through on the hem, whose step the
-    # line search halves, gets one more Newton step at once instead of a frame of 12 % strain.
-    # At N = 128, 15 runs under perturbed gravity: max 0.69-0.84 % (0 over 1 %), rise <= 0.52 J,
-    # where `newton_relaxed` (after the same stop's rounding changes) went over in 2 of 15
-    # (README, "Extra steps where the line search shortened one").
+    # `newton_relaxed` with `extra_steps = 1`: a step the line search shortened is followed by
+    # one more Newton step at once (docs/decisions/newton-extra-steps.md).
     "newton_extra": ["constraints.0.params.compliance=1e-6", "constraints.0.params.compression_compliance=1e-6",
                      "constraints.0.params.cg_iterations=3", "constraints.0.params.start_passes=10",
                      "constraints.0.params.plain_levels=1", "constraints.0.params.relaxation=0.7",
                      "constraints.0.params.extra_steps=1"],
     # `newton_extra` with `refresh_depth = 2`: at a substep's later Newton steps only the first
-    # two coarse levels get new Galerkin operators (the updates: 4.2-4.6 against 5.7-6.1 ms a
-    # frame on 2 threads). At N = 128, 15 runs: max 0.58-0.94 % (0 over 1 %), rise <= 0.32 J
-    # (README, "The deep coarse operators kept through a substep").
+    # two coarse levels get new Galerkin operators (docs/decisions/newton-refresh-depth.md).
     "newton_refresh": ["constraints.0.params.compliance=1e-6", "constraints.0.params.compression_compliance=1e-6",
                        "constraints.0.params.cg_iterations=3", "constraints.0.params.start_passes=10",
                        "constraints.0.params.plain_levels=1", "constraints.0.params.relaxation=0.7",
                        "constraints.0.params.extra_steps=1", "constraints.0.params.refresh_depth=2"],
     # `newton_refresh` with `pre_smoothing = false`: each level of the V-cycle sweeps only after
     # its coarse correction (a V(0,1) cycle, CG's beta in the flexible form), reading each
-    # level's matrix about once a cycle instead of twice (README, "V-cycles that sweep only on
-    # the way up").
+    # level's matrix about once a cycle instead of twice (docs/decisions/newton-pre-smoothing.md).
     "newton_post": ["constraints.0.params.compliance=1e-6", "constraints.0.params.compression_compliance=1e-6",
                     "constraints.0.params.cg_iterations=3", "constraints.0.params.start_passes=10",
                     "constraints.0.params.plain_levels=1", "constraints.0.params.relaxation=0.7",

@@ -6,15 +6,15 @@ usage: bench/spread.py SCENE --N 128 [--runs 15] [--threads 2] [--bound 0.01] [n
 The drape's folds are chaotic: changing gravity by 1e-8 of itself moves only the rounding, yet it
 moves a run's max strain (the mean over the last 60 frames of each frame's largest structural
 strain) by tenths of a per cent, and an unconverged setting's energy rise by its whole size
-(README, "Under-relaxed sweeps"). One run is one sample. This runs `nucleus run SCENE` with
+(docs/decisions/newton-relaxation.md). One run is one sample. This runs `nucleus run SCENE` with
 gravity (0, -g, 0) for g in 9.81, 9.8100001, 9.8099999, 9.81001, 9.80999, ... (the first
-`--runs` of `GRAVITIES`, below: the README table's), and prints each run's `bench/drape_metrics.py` figures and, per figure, the
+`--runs` of `GRAVITIES`, below), and prints each run's `bench/drape_metrics.py` figures and, per figure, the
 range and the runs over `--bound` (max strain) or over 1 J (energy rise, the sweep's
 "makes energy" mark). Arguments after the options go to `nucleus run` unchanged (say `--substeps
 1 --iterations 3 --set constraints.0.params.cg_iterations=3`). Needs the release host and
 plugins (`cargo xtask plugins --release`); writes its runs under target/spread/ and removes them.
 
-Example (the README's table, `newton_relaxed` row):
+Example (the `newton_relaxed` setting):
 
     python3 bench/spread.py scenes/drape_newton.toml --N 128 --runs 15 -- --substeps 1 \\
         --iterations 3 --set constraints.0.params.compliance=1e-6 \\
@@ -35,8 +35,8 @@ import drape_metrics  # noqa: E402
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
-# Gravity (m/s², along -y) of each run, as text: the README's table used these fifteen, in
-# this order (9.81 changed by 1e-8 to 5e-6 of itself); later runs go on in steps of 1e-5.
+# Gravity (m/s², along -y) of each run, as text: the decision records' tables used these
+# fifteen, in this order (9.81 changed by 1e-8 to 5e-6 of itself); later runs go on in steps of 1e-5.
 GRAVITIES = ["9.81", "9.8100001", "9.8099999", "9.81001", "9.80999", "9.80998", "9.81002",
              "9.80997", "9.81003", "9.80996", "9.81004", "9.80995", "9.81005", "9.809995",
              "9.810005"]

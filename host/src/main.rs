@@ -2,6 +2,7 @@
 
 mod bench;
 mod new_plugin;
+mod plugin_docs;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -108,6 +109,9 @@ enum Command {
     },
     /// List every plugin found, its kinds, their default order/importance and parameters.
     Plugins {
+        /// Print the kinds and parameters as the Markdown reference of docs/scene-format.md.
+        #[arg(long)]
+        markdown: bool,
         #[command(flatten)]
         plugin_args: PluginArgs,
     },
@@ -170,7 +174,11 @@ fn main() -> ExitCode {
             plugin_args,
         }),
         Command::NewPlugin(args) => new_plugin::run(&args).map_err(Failure::input),
-        Command::Plugins { plugin_args } => list_plugins(&plugin_args),
+        Command::Plugins {
+            markdown: true,
+            plugin_args,
+        } => discover(&plugin_args, false).map(|r| print!("{}", plugin_docs::markdown(&r))),
+        Command::Plugins { plugin_args, .. } => list_plugins(&plugin_args),
         Command::Bench {
             scene,
             substeps,

@@ -12,27 +12,18 @@
 //!   a time, by the threads of the team, the caller included, and the caller keeps claiming
 //!   until none is left: it waits only for parts a helper has started. When the machine is
 //!   busy with other work and a helper is not scheduled, the caller runs its part too, instead
-//!   of spinning until the helper gets a core back. Measured on the 128 × 128 drape (`tether`,
-//!   640 substeps) on two threads next to a busy loop (`yes > /dev/null`): 1,288–1,884 ms a
-//!   frame with each helper owning a fixed part (2.1–3.4 times the one-thread time; 8 times
-//!   next to a compilation), 823–825 ms with claimed parts (1.4–1.5 times: three busy threads
-//!   still share two cores); the same bits either way.
+//!   of spinning until the helper gets a core back (a fixed part per helper made a step next to
+//!   a busy loop two to three times slower than one thread).
 //! * **Each thread asks for its own part first** (the caller part 0, helper `n` part `n`;
 //!   `claim`), then for any part left. Consecutive jobs split the same arrays the same way,
-//!   so a thread finds its part's particles in its own core's cache. When the first thread to
-//!   ask took the lowest part, a spinning helper often took part 0 while the caller was still
-//!   waking the others, and the data crossed between the cores' caches at every job: on the
-//!   128 × 128 drape (`tether`, 640 substeps, two threads, AMD EPYC VM) the prediction took
-//!   26 % of the samples (8 % on one thread); with own parts first, 9 %. Whole 120-frame runs
-//!   alternating with the build before (3 each, the same bits): 146–172 against 166–184 ms a
-//!   frame; next to a busy loop 365–451 against 433–436 ms (the caller still takes a part
-//!   that a helper kept off its core has not claimed).
+//!   so a thread finds its part's particles in its own core's cache; when the first thread to
+//!   ask took the lowest part, the data crossed between the cores' caches at every job.
 //! * **One team per process, not per plugin.** Spinning helpers of two teams take both cores
-//!   while only one team has work: measured with a team per `stretch` group, a scene with two
-//!   groups ran 1.5× slower on two threads (61.7 against 41.5 ms per frame, 128 × 128 drape).
-//!   So the host owns the only team and lends it to every group through the context, and the
-//!   core's own loops (prediction, velocities, the finite checks) run on it too, while the
-//!   helpers are awake anyway.
+//!   while only one team has work. So the host owns the only team and lends it to every group
+//!   through the context, and the core's own loops (prediction, velocities, the finite checks)
+//!   run on it too, while the helpers are awake anyway.
+//!
+//! The measurements behind each of these: `docs/decisions/thread-team.md`.
 //!
 //! A job is `Fn(part) + Sync`, called once with each part index `0..parts`; it must split its
 //! work by the index alone and write only what that part owns (see [`SharedArray`]), so that

@@ -1,6 +1,6 @@
 //! `nucleus bench`, end to end through the host binary: one CSV row per substeps × iterations
 //! combination with the documented columns, the reference row exactly at zero position error,
-//! errors that fall with more substeps, the Small Steps result the README states (n substeps of
+//! errors that fall with more substeps, the Small Steps result (`docs/decisions/small-steps.md`: n substeps of
 //! one pass beat one substep of n passes), no energy made by hard constraints, both plots
 //! written; bad input — zero frames, a bad scene, an output directory that cannot be made — is
 //! refused as such (exit 2) before any combination runs.
@@ -103,9 +103,9 @@ fn bench_writes_a_row_per_combination_and_its_errors_follow_the_substeps() {
         );
         assert!(b < 0.8 * a && c < 0.5 * b, "{column}: {a} {b} {c}");
     }
-    // Small Steps (Macklin et al. 2019), as the README states for this solver: at equal
-    // passes a frame, n substeps of one pass beat one substep of n passes (measured about 1.7×
-    // and 2.2× in strain here).
+    // Small Steps (Macklin et al. 2019; docs/decisions/small-steps.md): at equal passes a
+    // frame, n substeps of one pass beat one substep of n passes (about 1.7× and 2.2× in strain
+    // here).
     for column in ["stretch.rms_mean", "pos_rms_mean"] {
         assert!(
             value((4, 1), column) < 0.8 * value((1, 4), column),
@@ -138,8 +138,7 @@ fn a_benchmark_of_zero_frames_is_refused() {
 }
 
 /// A bad scene and an output directory that cannot be made are bad input (exit 2), found
-/// before any combination runs: neither the reference run nor a row is measured (before, both
-/// exited 1, and the directory only failed after the whole sweep had run).
+/// before any combination runs: neither the reference run nor a row is measured.
 #[test]
 fn a_bad_scene_or_output_directory_is_refused_before_the_sweep_runs() {
     let (output, out) = bench(

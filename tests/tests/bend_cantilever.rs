@@ -119,7 +119,7 @@ fn isometric_and_dihedral_models_agree_for_small_deflections() {
 
 /// Prints, for each bend model, the cantilever's error after each pass count: the tip
 /// deflection's distance to a converged reference (128 substeps × 32 iterations), the bend
-/// and stretch residuals, and the wall time per frame. For the README:
+/// and stretch residuals, and the wall time per frame (the table in `plugins/bend/README.md`):
 /// `cargo xtask plugins --release && cargo test --release -p nucleus-tests --test bend_cantilever -- --ignored --nocapture`
 #[test]
 #[ignore = "a measurement, ~1 min in release; run it by hand (see the doc comment)"]

@@ -313,11 +313,10 @@ fn triangle_edge_stretch(rest: &[[DVec3; 3]], now: &[[DVec3; 3]]) -> (f64, f64) 
 /// hard edges stretched about as much as the same cloth's own fall onto the sphere stretches
 /// them: `scenes/cloth_on_sphere.toml` from its start at y = 0.45 (10 substeps × 1 pass, soft
 /// compression) peaks at impact at 48 % on a few edges and 13.2 % RMS; started at y = 0.1,
-/// its middle 0.2 m deep in the 0.3 m sphere, it peaks at 51 % and 9.9 % (measured
-/// 2026-11-24), within the bounds of 60 % and 12 % asserted here. Before the push-out limit
-/// the last pass projected every vertex out at once, the fail-safe froze the jumps that
-/// crossed the rest of the cloth back inside, and after 2 frames the edges were stretched up
-/// to 522 % (RMS 137 %) at 8.3 s a frame.
+/// its middle 0.2 m deep in the 0.3 m sphere, it peaks at 51 % and 9.9 %, within the bounds of
+/// 60 % and 12 % asserted here. Without the push-out limit the last pass projects every vertex
+/// out at once, and the fail-safe freezes the jumps that cross the rest of the cloth back
+/// inside (edges stretched to 522 %).
 #[test]
 fn a_cloth_started_through_a_sphere_is_pushed_out_without_tearing() {
     let text = std::fs::read_to_string(shipped_scene("cloth_on_sphere.toml")).expect("scene");
@@ -381,9 +380,7 @@ fn cloth_on_collider(collider: &str, y: f64) -> Simulation {
 /// pushed out through them. `cloth_on_sphere`'s cloth at y = 0.15 through a box of half
 /// extents 0.25 m turned 20° about y: 3,103 of its edges start through the box; none is after
 /// 7 frames, and the stretch settles to the draped cloth's (RMS 5.0 % at frame 15, 3.0 % at
-/// frame 30; peak 306 % max and 31.7 % RMS at frame 6, as the last vertices leave). Before
-/// (commit 26554e8) 242 edges stayed through the box for good, RMS 32 %, 120 fail-safe
-/// freezes in 20 frames.
+/// frame 30; peak 306 % max and 31.7 % RMS at frame 6, as the last vertices leave).
 #[test]
 fn a_cloth_started_through_a_box_is_untangled_from_it() {
     let mut sim = cloth_on_collider(
@@ -457,9 +454,7 @@ fn pierced_by_vertical_axis(tris: &[[DVec3; 3]], y0: f64, y1: f64) -> usize {
 /// `cloth_on_sphere`'s cloth at y = 0.15 on a vertical capsule (axis from y = −0.3 to 0.3,
 /// radius 0.1 m): out of the capsule after 14 frames, over its top, and settled to a drape
 /// over its end (RMS stretch 5.8 % at frame 29); the stretch peaks at 270 % (RMS 13.5 %).
-/// Pushed radially, the hole stretched the edges around it by up to 2,221 %; before either
-/// (commit 6430040) the cloth hung on the capsule for good, 937 % and RMS 29 % over 30
-/// frames, with 620 fail-safe freezes.
+/// Pushed radially, the hole would stretch the edges around it by up to 2,221 %.
 #[test]
 fn a_cloth_started_on_a_capsule_slides_off_its_end() {
     let mut sim = cloth_on_collider(

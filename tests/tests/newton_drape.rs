@@ -173,8 +173,8 @@ fn heights_at_quarter_and_half_second(mut sim: Simulation) -> (f64, f64) {
 
 #[test]
 fn the_drape_falls_as_converged_solvers_make_it_fall() {
-    // Low strain means little if the cloth does not move right. Measured 2026-11-23 at
-    // N = 32 (`bench/motion.py`): the mean height after 0.25 s and 0.5 s is −0.239 / −0.489 m
+    // Low strain means little if the cloth does not move right. At N = 32
+    // (`bench/motion.py`) the mean height after 0.25 s and 0.5 s is −0.239 / −0.489 m
     // for plain `stretch` at 320 substeps, −0.239 / −0.494 m for `stretch_newton` with every
     // Newton step solved to the end (2 substeps × 20 passes); the scene's setting gives
     // −0.235 / −0.497 m. Both within 3 cm of the plain `stretch` run.
@@ -262,7 +262,7 @@ fn start_passes_let_two_newton_steps_a_substep_move_the_drape() {
     // is held up (measured at N = 32, 2 × 2, 5 CG: −0.168 / −0.472 m after 0.25 / 0.5 s).
     // Five Gauss-Seidel passes on the same springs first take the edges' local strain off, and
     // the same two steps move it as converged solvers do (−0.222 / −0.497 m): half the scene's
-    // Newton steps. `bench/newton_pcg/primal.py --pbd-start K` shows the same with direct solves.
+    // Newton steps; direct solves do the same (docs/decisions/newton-pcg-experiments.md).
     let (quarter, half) = heights_at_quarter_and_half_second(drape_newton_with(32, "", 2));
     let (quarter_k, half_k) =
         heights_at_quarter_and_half_second(drape_newton_with(32, "start_passes = 5, ", 2));
@@ -300,12 +300,11 @@ fn drape_newton_soft_cg(n: u32, params: &str, cg: u32) -> Simulation {
 
 #[test]
 fn softer_springs_and_a_plain_first_level_hold_the_bounds_and_move_the_drape() {
-    // The cheapest setting of the 2026-11-27 sweeps (README, "Softer springs, cheaper Newton
-    // steps"), with the first coarse level translating only (half a V-cycle's work). Measured
-    // at N = 32 over 120 frames (`bench/drape_metrics.py`, `bench/motion.py`): structural strain
+    // The sweep's `newton` setting (docs/decisions/newton-soft-springs.md), with the first
+    // coarse level translating only (half a V-cycle's work). At N = 32 over 120 frames (`bench/drape_metrics.py`, `bench/motion.py`): structural strain
     // max 0.087 %, RMS 0.0076 % (means over the last 60 frames), mean height −0.247 / −0.497 m
     // after 0.25 / 0.5 s, the energy rising by 0.11 J at most.
-    // And with the V-cycle's sweeps under-relaxed (README, "Under-relaxed sweeps"): max 0.099 %,
+    // And with the V-cycle's sweeps under-relaxed (docs/decisions/newton-relaxation.md): max 0.099 %,
     // RMS 0.0094 %, rise 0.12 J. With 3 CG iterations a step, which hold both bounds at N = 128,
     // the energy rises by 0.6–1.1 J here (five runs, gravity changed by 1e-8..1e-6): not tested.
     for (plain_levels, relaxation, cg) in [(0, 1.0, 4), (1, 1.0, 4), (1, 0.7, 4)] {
@@ -347,8 +346,8 @@ fn softer_springs_and_a_plain_first_level_hold_the_bounds_and_move_the_drape() {
 
 #[test]
 fn a_plain_first_level_keeps_the_swing_that_translations_alone_lose() {
-    // At N = 128 the cloth falls for half a second, then swings back up. Measured (2 threads,
-    // `bench/motion.py`), the particles' mean height after 1 s: −0.043 m for `tether` at 640 × 1;
+    // At N = 128 the cloth falls for half a second, then swings back up. The particles' mean
+    // height after 1 s (`bench/motion.py`): −0.043 m for `tether` at 640 × 1;
     // −0.226 m with every coarse level turning (one substep of implicit Euler damps the swing);
     // −0.208 m with the first coarse level translating only (`plain_levels = 1`, half the work
     // of a V-cycle); −0.408 m with no level turning (`rotations = false`), which also holds the

@@ -43,8 +43,8 @@ fn thrown_dice_tumble_and_come_to_rest_flat_on_a_face() {
     }
     // Never through the ground. The bodies move after the collision group's last pass (to
     // answer its pushes), and a die turning over an edge can end a substep a little into the
-    // thickness with a corner the collision did not push (measured 0.15 mm of the 2 mm,
-    // 2026-11-25; the next substep pushes it out): at most a tenth of it.
+    // thickness with a corner the collision did not push (0.15 mm of the 2 mm; the next
+    // substep pushes it out): at most a tenth of it.
     assert!(
         lowest > 0.9 * THICKNESS,
         "a particle went down to {lowest} m"
@@ -52,7 +52,7 @@ fn thrown_dice_tumble_and_come_to_rest_flat_on_a_face() {
     for (k, d) in DICE.iter().enumerate() {
         let r = particles_of(&sim, d);
         let x = &sim.positions()[r];
-        // At rest for the last second at least (measured: from frames 44-61 on, 2026-11-25).
+        // At rest for the last second at least (from frames 44-61 on).
         let since = resting_since[k].unwrap_or_else(|| panic!("{d} never comes to rest"));
         assert!(since <= 120, "{d} at rest only from frame {since}");
         // Flat on a face: its particles at exactly three heights — the face on the ground at

@@ -18,8 +18,8 @@ use nucleus_tests::*;
 /// thickness (m).
 const REST: f64 = 0.11 + 0.005;
 
-/// The bench's scene (`bench/rigid_drop.toml`, so the figures its README gives and these
-/// checks are of one scene) at `substeps`; `rigid_order`: the rigid group's order (`None`:
+/// The bench's scene (`bench/rigid_drop.toml`, so the figures `plugins/rigid/README.md` gives
+/// and these checks are of one scene) at `substeps`; `rigid_order`: the rigid group's order (`None`:
 /// the kind's default); `restitution` the collision's.
 fn scene(substeps: u32, rigid_order: Option<i64>, restitution: f64) -> String {
     let text = include_str!("../../bench/rigid_drop.toml");
@@ -78,8 +78,7 @@ fn a_rigid_ball_with_no_restitution_lands_dead() {
                  down to {lowest:.4} m (rest {REST} m)",
                 100.0 * share
             );
-            // Measured 0.0 % at every setting (2026-11-25); 24-47 % before pushes were
-            // answered with the body's mass.
+            // 0.0 % at every setting.
             assert!(
                 share < 0.01,
                 "rigid order {order:?}, {substeps} substeps: the ball rebounds {:.1} % of its drop",
@@ -104,7 +103,7 @@ fn a_rigid_ball_rebounds_to_the_square_of_its_restitution() {
                 100.0 * share
             );
             // The centre leaves at `e` times its impact speed, so it climbs back `e²` of the
-            // drop; measured 24.9-25.0 % and 63.9-64.0 % (2026-11-25).
+            // drop: 24.9-25.0 % and 63.9-64.0 %.
             assert!(
                 (share - e * e).abs() < 0.01,
                 "restitution {e}, {substeps} substeps: rebound {:.2} % of the drop, expected {:.0} %",
@@ -185,9 +184,9 @@ resolution = [2, 1, 2]"#,
 
 #[test]
 fn a_rigid_slab_sliding_on_the_ground_slows_at_coulombs_rate() {
-    // Coulomb: it slows at μd g and stops after v²/(2 μd g) = 0.510 m. Measured 1.0000 μd g
-    // and 0.508 m at both orders (2026-11-25); 1.082 μd g and 0.469 m at the default order
-    // while the friction's pushes were answered apart from the normal ones.
+    // Coulomb: it slows at μd g and stops after v²/(2 μd g) = 0.510 m (1.0000 μd g and
+    // 0.508 m at both orders; 1.08 μd g if the friction's pushes were answered apart from the
+    // normal ones).
     for order in [None, Some(200)] {
         let (decel, stop) = slide(order);
         eprintln!("rigid order {order:?}: slows at {decel:.4} μd g, stops at {stop:.4} m");
@@ -252,8 +251,8 @@ fn a_hinged_lid_and_a_pivoted_bar_land_dead() {
     ] {
         let highest = swing_down(pins);
         eprintln!("{what}: after landing, its lowest particle rises to {highest:.4} m at most");
-        // Measured 0.0050 m (on the ground at its thickness) for both, 2026-11-25; 0.0265 and
-        // 0.0349 m (bouncing back up) before pinned bodies answered the pushes.
+        // 0.0050 m (on the ground at its thickness) for both; 0.0265 and 0.0349 m (bouncing
+        // back up) if pinned bodies did not answer the pushes.
         assert!(
             highest < 0.005 + 5e-4,
             "{what}: the lid bounces back up to {highest} m"

@@ -1955,9 +1955,8 @@ params = {{ compliance = {compliance:e}, compression_compliance = {compliance:e}
 
 /// One Newton step a substep with the default solves (at most 50 CG iterations to 1e-6) does
 /// not converge the substep, and with stiff springs the error left does work: the hanging
-/// cloth swings higher and higher. Measured 2026-11-23 (12 x 12 cloth, 2 substeps, 60 frames,
-/// compliance 1e-8): +34 %/s of the energy in play (at 5 CG iterations to 1e-3 it was 76 %/s
-/// at 1 pass and 20 %/s at 16). With the substep converged (8 passes, CG to 1e-9) or softer
+/// cloth swings higher and higher (12 x 12 cloth, 2 substeps, 60 frames, compliance 1e-8:
+/// +34 %/s of the energy in play). With the substep converged (8 passes, CG to 1e-9) or softer
 /// springs (1e-5) it does not (the next test).
 #[test]
 #[ignore = "fails: stretch_newton at 1 pass, compliance 1e-8, gains 34 %/s of the energy in play (unconverged substeps); converged passes and compliance 1e-5 do not (the next test)"]
@@ -1968,9 +1967,8 @@ fn newton_stretch_at_one_pass_never_gains_energy() {
     );
 }
 
-/// Two Newton steps a substep with the default solves do not converge the substep either.
-/// Measured 2026-11-23 (12 x 12 cloth, 2 substeps, 60 frames, compliance 1e-8): +1.66 %/s of
-/// the energy in play.
+/// Two Newton steps a substep with the default solves do not converge the substep either
+/// (12 x 12 cloth, 2 substeps, 60 frames, compliance 1e-8: +1.66 %/s of the energy in play).
 #[test]
 #[ignore = "fails: stretch_newton at 2 passes, compliance 1e-8, gains 1.66 %/s of the energy in play (unconverged substeps)"]
 fn newton_stretch_at_two_passes_never_gains_energy() {
@@ -1982,8 +1980,7 @@ fn newton_stretch_at_two_passes_never_gains_energy() {
 
 /// Gauss-Seidel passes at the start of each substep (`start_passes`), which make two
 /// Newton steps a substep move the drape right (`tests/newton_drape.rs`), make the energy
-/// gained larger, not smaller: the same cloth as above gains +13.7 %/s with 10 start passes
-/// (measured 2026-11-23).
+/// gained larger, not smaller: the same cloth as above gains +13.7 %/s with 10 start passes.
 #[test]
 #[ignore = "fails: stretch_newton at 2 passes after 10 start passes, compliance 1e-8, gains 13.7 %/s of the energy in play (1.66 %/s without them)"]
 fn newton_stretch_at_two_passes_after_start_passes_never_gains_energy() {

@@ -144,7 +144,7 @@ pub fn kinds() -> Vec<KindSpec> {
         name: "air",
         doc: "Drag, lift and skin drag of a moving air (wind with optional smooth, seeded \
               turbulence) on every surface triangle, curve edge and isolated particle of the \
-              target objects, applied as forces in the velocity stage.",
+              target objects, applied as forces in the force stage (before the prediction).",
         default_order: 0,
         default_importance: 1,
         residual_unit: "m/s",

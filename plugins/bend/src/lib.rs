@@ -81,49 +81,24 @@
 //!
 //! ## Cost
 //!
-//! **Four constraints per instruction** (`lanes`: dihedral hinges, angles and isometric hinges
-//! since 2026-11-24). Within a colour, the dihedral hinges (`bend` on surfaces, and `twist`'s
-//! chains, which use the same kernel), the angles (`shear`'s triangle corners, `bend` on curves)
-//! and the isometric hinges (`bend_isometric`) run four consecutive constraints in AVX2's 256-bit
-//! lanes where the processor has AVX2 (checked
-//! once at run time); the constraints left over after the last four of each part, the overflow
-//! colour (whose constraints may share particles) and other processors take the one-at-a-time
-//! kernel. The arithmetic is [`dihedral::project_dihedral`]'s,
-//! [`angle::project_edge_angle`]'s and [`bergou2006_isometric::project_isometric`]'s operation
-//! for operation, without fused multiply-adds, and every data-dependent branch (the degenerate
-//! and flatness tests, `atan2`'s swap, range reduction, quadrant and sign, the hinge angle's
-//! wrap, the XPBD denominator's guards) is computed both ways and
-//! selected per lane: every position, multiplier and skip count has the same bits as the
-//! one-at-a-time kernel. Unit tests check this on random colours with every degenerate case
-//! (for the angles also exactly at, and one ulp either side of, the collinear and the length
-//! limits) and the lane `atan2` on 400,000 arguments; a 96 × 96 drape with `bend`, and one
-//! with `shear`, give byte-identical frames on 1 and 2 threads against the build before, and
-//! so does the rope coil (curve `bend` and `twist`), and one with `bend_isometric`.
+//! **Four constraints per instruction** (`lanes`). Within a colour, the dihedral hinges (`bend`
+//! on surfaces, and `twist`'s chains, which use the same kernel), the angles (`shear`'s triangle
+//! corners, `bend` on curves) and the isometric hinges (`bend_isometric`) run four consecutive
+//! constraints in AVX2's 256-bit lanes where the processor has AVX2 (checked once at run time);
+//! the constraints left over after the last four of each part, the overflow colour (whose
+//! constraints may share particles) and other processors take the one-at-a-time kernel. The
+//! arithmetic is [`dihedral::project_dihedral`]'s, [`angle::project_edge_angle`]'s and
+//! [`bergou2006_isometric::project_isometric`]'s operation for operation, without fused
+//! multiply-adds, and every data-dependent branch (the degenerate and flatness tests, `atan2`'s
+//! swap, range reduction, quadrant and sign, the hinge angle's wrap, the XPBD denominator's
+//! guards) is computed both ways and selected per lane: every position, multiplier and skip
+//! count has the same bits as the one-at-a-time kernel. Unit tests check this on random colours
+//! with every degenerate case (for the angles also exactly at, and one ulp either side of, the
+//! collinear and the length limits) and the lane `atan2` on 400,000 arguments.
 //!
-//! `cargo bench -p nucleus-bend --bench bend --
-//! 'bend/(dihedral_bend|isometric_bend|shear|curve_bend)'` (one pass over the 48,005 hinges or
-//! the 96,774 corners of a 128 × 128 cloth, or the 16,383
-//! joints of a 16,384-segment rope, through the ABI, on a team of `RAYON_NUM_THREADS`), the
-//! builds with and without the lanes run alternately twice in one session on the shared 2-core
-//! VM:
-//!
-//! | pass | threads | one at a time | four lanes | ratio |
-//! |---|---:|---:|---:|---:|
-//! | hinges | 1 | 5.02–5.10 ms (105 ns a hinge) | 1.48–1.54 ms (31 ns) | 3.4× |
-//! | hinges | 2 | 2.47–2.79 ms (51–58 ns) | 0.90–0.99 ms (19–21 ns) | 2.8× |
-//! | `shear` | 1 | 8.62–8.87 ms (89–92 ns an angle) | 1.98–2.25 ms (20–23 ns) | 3.8–4.5× |
-//! | `shear` | 2 | 4.72–4.78 ms (49 ns) | 1.06–1.10 ms (11 ns) | 4.3–4.5× |
-//! | curve `bend` | 1 | 1.31–1.52 ms (80–93 ns) | 0.33–0.37 ms (20–23 ns) | 4.0–4.1× |
-//! | curve `bend` | 2 | 0.77–0.79 ms (47–48 ns) | 0.18–0.20 ms (11–12 ns) | 3.9–4.5× |
-//! | `bend_isometric` | 1 | 2.65–2.75 ms (55–57 ns a hinge) | 0.69–0.70 ms (14–15 ns) | 3.8–4.0× |
-//! | `bend_isometric` | 2 | 1.33–1.78 ms (28–37 ns) | 0.39–0.41 ms (8–9 ns) | 3.2–4.5× |
-//!
-//! (The hinge rows were measured when the hinge lanes came, on a busier machine; in the angles'
-//! session the hinge pass took 1.31–1.36 ms on 1 thread and 0.74 ms on 2, and 1.17–1.21 and
-//! 0.65 ms with the angles' change, which also loads the lanes without `array::map`. In the
-//! isometric hinges' session the dihedral pass took 1.26–1.42 ms on 1 thread and 0.71–0.79 ms on
-//! 2, before and after alike: `bend_isometric` went from about twice a dihedral hinge's cost to
-//! about half.)
+//! On one thread a pass costs about 26–31 ns a dihedral hinge, 20 ns an angle and 14 ns an
+//! isometric hinge (`cargo bench -p nucleus-bend --bench bend`); the lanes made each three to
+//! four times cheaper (`docs/decisions/simd-lanes.md`).
 //!
 //! More than four: besides doing each operation for four constraints, the lanes take no branch
 //! on the data, and the one-at-a-time `atan2` branches on the quadrant and on the size of the
