@@ -39,7 +39,7 @@ use glam::{DQuat, DVec3};
 use nucleus_sdk::team::{self, SharedArray, TeamRef};
 use nucleus_sdk::{
     Attribute, EdgePair, GroupBox, ObjectView, PluginError, Residual, SceneView, SolveContext,
-    Stages, TrianglePair, FLAG_KINEMATIC,
+    Stage, Stages, TrianglePair, FLAG_KINEMATIC,
 };
 
 use crate::complex::Complex;
@@ -61,33 +61,6 @@ pub enum BuildError {
         /// The cause.
         error: Box<PluginLoadError>,
     },
-}
-
-/// A stage of the step, for error messages.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Stage {
-    /// Force stage.
-    Force,
-    /// Begin-substep stage.
-    BeginSubstep,
-    /// Projection.
-    Project,
-    /// End-substep stage.
-    EndSubstep,
-    /// Residual / report.
-    Report,
-}
-
-impl std::fmt::Display for Stage {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            Stage::Force => "force",
-            Stage::BeginSubstep => "begin_substep",
-            Stage::Project => "project",
-            Stage::EndSubstep => "end_substep",
-            Stage::Report => "report",
-        })
-    }
 }
 
 /// An error during a step. The state is left as it was when the error happened.
@@ -325,8 +298,13 @@ pub struct Group {
 impl Group {
     /// Whether the step calls this group's `stage`: it implements the stage and holds at
     /// least one constraint (an empty group is never scheduled).
-    pub fn runs(&self, stage: Stages) -> bool {
-        self.len > 0 && self.stages.contains(stage)
+    pub fn runs(&self, stage: Stage) -> bool {
+        self.declares(stage.flag())
+    }
+
+    /// Whether the group holds at least one constraint and declares every flag of `flags`.
+    pub fn declares(&self, flags: Stages) -> bool {
+        self.len > 0 && self.stages.contains(flags)
     }
 }
 
@@ -691,7 +669,7 @@ impl Simulation {
         drop(views);
         let calls: u64 = groups
             .iter()
-            .filter(|g| g.runs(Stages::PROJECT))
+            .filter(|g| g.runs(Stage::Project))
             .map(|g| u64::from(g.importance) * u64::from(settings.iterations))
             .sum();
         if calls > MAX_CALLS_PER_SUBSTEP {
@@ -745,7 +723,7 @@ impl Simulation {
             .iter()
             .map(|g| Slot {
                 order: g.order,
-                importance: if g.runs(Stages::PROJECT) {
+                importance: if g.runs(Stage::Project) {
                     g.importance.saturating_mul(self.settings.iterations)
                 } else {
                     0
@@ -753,17 +731,18 @@ impl Simulation {
             })
             .collect();
         self.calls = schedule(&slots, self.settings.schedule);
-        let pick = |s: Stages| -> Vec<usize> {
+        let pick = |s: Stage| -> Vec<usize> {
             (0..self.groups.len())
                 .filter(|&i| self.groups[i].runs(s))
                 .collect()
         };
-        self.force_groups = pick(Stages::FORCE);
-        self.begin_groups = pick(Stages::BEGIN_SUBSTEP);
-        self.end_groups = pick(Stages::END_SUBSTEP);
+        self.force_groups = pick(Stage::Force);
+        self.begin_groups = pick(Stage::BeginSubstep);
+        self.end_groups = pick(Stage::EndSubstep);
         // The pushes exist only for a scene with a group that reads them and one that writes
         // them: elsewhere they are empty slices, which writers and readers skip.
-        let used = !pick(Stages::TAKES_PUSHES).is_empty() && !pick(Stages::GIVES_PUSHES).is_empty();
+        let any = |flag: Stages| self.groups.iter().any(|g| g.declares(flag));
+        let used = any(Stages::TAKES_PUSHES) && any(Stages::GIVES_PUSHES);
         let n = if used { self.particles.x.len() } else { 0 };
         let p = &mut self.particles;
         for a in [&mut p.pushes, &mut p.kicks] {
