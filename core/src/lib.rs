@@ -5,6 +5,7 @@
 //! group is its order, its importance, and which optional stages it implements.
 
 pub mod complex;
+pub mod error;
 pub mod obj;
 pub mod output;
 pub mod plugins;

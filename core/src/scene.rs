@@ -31,52 +31,8 @@ use std::path::{Path, PathBuf};
 use serde::Deserialize;
 use toml::Spanned;
 
+use crate::error::SceneError;
 use crate::schedule::ScheduleMode;
-
-/// A scene error, located in its file.
-#[derive(Debug, thiserror::Error)]
-pub enum SceneError {
-    /// The file could not be read.
-    #[error("{path}: cannot read scene: {source}")]
-    Io {
-        /// The scene file.
-        path: PathBuf,
-        /// The cause.
-        source: std::io::Error,
-    },
-    /// The file is not a valid scene (syntax, unknown field, wrong type).
-    #[error("{path}:{line}:{col}: {message}")]
-    Parse {
-        /// The scene file.
-        path: PathBuf,
-        /// 1-based line.
-        line: usize,
-        /// 1-based column.
-        col: usize,
-        /// What is wrong.
-        message: String,
-    },
-    /// A value is syntactically fine but invalid (a pin out of range, a negative mass...).
-    #[error("{}", located(path, *line, *col, message))]
-    Invalid {
-        /// The scene file.
-        path: PathBuf,
-        /// 1-based line.
-        line: usize,
-        /// 1-based column.
-        col: usize,
-        /// What is wrong.
-        message: String,
-    },
-}
-
-fn located(path: &Path, line: usize, col: usize, message: &str) -> String {
-    if line == 0 {
-        format!("{}: {message}", path.display())
-    } else {
-        format!("{}:{line}:{col}: {message}", path.display())
-    }
-}
 
 /// Solver settings.
 #[derive(Debug, Clone, Deserialize)]

@@ -38,71 +38,15 @@ use abi_stable::std_types::{RResult, RSlice, RSliceMut, RStr};
 use glam::{DQuat, DVec3};
 use nucleus_sdk::team::{self, SharedArray, TeamRef};
 use nucleus_sdk::{
-    Attribute, EdgePair, GroupBox, ObjectView, PluginError, Residual, SceneView, SolveContext,
-    Stage, Stages, TrianglePair, FLAG_KINEMATIC,
+    Attribute, EdgePair, GroupBox, ObjectView, Residual, SceneView, SolveContext, Stage, Stages,
+    TrianglePair, FLAG_KINEMATIC,
 };
 
 use crate::complex::Complex;
-use crate::plugins::{PluginLoadError, Registry};
-use crate::scene::{PinMotion, Scene, SceneError, SolverSettings};
+use crate::error::{BuildError, PluginLoadError, StepError};
+use crate::plugins::Registry;
+use crate::scene::{PinMotion, Scene, SolverSettings};
 use crate::schedule::{schedule, Call, Slot};
-
-/// An error while building a simulation from a scene.
-#[derive(Debug, thiserror::Error)]
-pub enum BuildError {
-    /// The scene is invalid.
-    #[error(transparent)]
-    Scene(#[from] SceneError),
-    /// A plugin could not be found or failed to build its group.
-    #[error("{location}: {error}")]
-    Plugin {
-        /// `file:line:col` of the constraint in the scene.
-        location: String,
-        /// The cause.
-        error: Box<PluginLoadError>,
-    },
-}
-
-/// An error during a step. The state is left as it was when the error happened.
-#[derive(Debug, thiserror::Error)]
-pub enum StepError {
-    /// A plugin returned an error (or panicked, which the SDK turns into an error).
-    #[error("plugin `{plugin}` ({}), group `{group}`, {stage} at frame {frame} substep {substep}: {error}", path.display())]
-    Plugin {
-        /// Plugin name.
-        plugin: String,
-        /// Library path.
-        path: PathBuf,
-        /// Group name.
-        group: String,
-        /// Stage.
-        stage: Stage,
-        /// Frame.
-        frame: u64,
-        /// Substep.
-        substep: u32,
-        /// The plugin's error.
-        error: Box<PluginError>,
-    },
-    /// A group's call left a NaN or infinity in the state.
-    #[error("plugin `{plugin}` ({}), group `{group}`, {stage} at frame {frame} substep {substep}: wrote a non-finite {what} (NaN or infinity); stopping", path.display())]
-    NonFinite {
-        /// Plugin name.
-        plugin: String,
-        /// Library path.
-        path: PathBuf,
-        /// Group name.
-        group: String,
-        /// Stage.
-        stage: Stage,
-        /// Frame.
-        frame: u64,
-        /// Substep.
-        substep: u32,
-        /// "position" or "velocity".
-        what: &'static str,
-    },
-}
 
 /// An object's topology in global particle indices, as plugins see it.
 #[derive(Debug, Clone, Default)]
