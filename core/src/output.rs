@@ -15,7 +15,7 @@ use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 use crate::error::OutputError;
-use crate::world::Simulation;
+use crate::simulation::Simulation;
 
 fn io<T>(path: &Path, r: std::io::Result<T>) -> Result<T, OutputError> {
     r.map_err(|source| OutputError {

@@ -28,7 +28,7 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
-use nucleus_core::world::Particles;
+use nucleus_core::particles::Particles;
 use nucleus_core::{Registry, Scene, Simulation};
 use nucleus_sdk::Stage;
 
