@@ -45,7 +45,9 @@ pub struct Particles {
     /// Rest positions (m).
     pub rest: Vec<[f64; 3]>,
     /// Displacements by constraints against kinematic colliders since the force stage (m),
-    /// one per particle when a group takes them ([`Stages::TAKES_PUSHES`](nucleus_sdk::Stages::TAKES_PUSHES)), else empty.
+    /// one per particle when a group takes them ([`Stages::TAKES_PUSHES`]), else empty.
+    ///
+    /// [`Stages::TAKES_PUSHES`]: nucleus_sdk::Stages::TAKES_PUSHES
     pub pushes: Vec<[f64; 3]>,
     /// Velocity changes by the same since the force stage (m/s), likewise.
     pub kicks: Vec<[f64; 3]>,
