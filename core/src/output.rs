@@ -14,17 +14,8 @@ use std::fs::{self, File};
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
-use crate::world::Simulation;
-
-/// An output error, naming the file.
-#[derive(Debug, thiserror::Error)]
-#[error("{}: {source}", path.display())]
-pub struct OutputError {
-    /// The file.
-    pub path: PathBuf,
-    /// The cause.
-    pub source: std::io::Error,
-}
+use crate::error::OutputError;
+use crate::simulation::Simulation;
 
 fn io<T>(path: &Path, r: std::io::Result<T>) -> Result<T, OutputError> {
     r.map_err(|source| OutputError {

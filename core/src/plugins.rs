@@ -23,42 +23,7 @@ use nucleus_sdk::{
     GroupBox, PluginDef, PluginError, PluginInfo, PluginModRef, SceneView, SDK_ABI_VERSION,
 };
 
-/// A loading error.
-#[derive(Debug, thiserror::Error, Clone)]
-pub enum PluginLoadError {
-    /// Two libraries provide the same kind.
-    #[error("kind `{kind}` is provided by two plugins: {} and {}", first.display(), second.display())]
-    DuplicateKind {
-        /// The kind.
-        kind: String,
-        /// One library.
-        first: PathBuf,
-        /// The other.
-        second: PathBuf,
-    },
-    /// A scene asks for a kind no plugin provides.
-    #[error("no plugin provides kind `{kind}` (searched: {searched}){refused}")]
-    UnknownKind {
-        /// The kind.
-        kind: String,
-        /// The directories searched.
-        searched: String,
-        /// Refused plugins that might have provided it, summarised.
-        refused: String,
-    },
-    /// A plugin's factory failed.
-    #[error("plugin `{plugin}` ({}): group `{group}`: {error}", path.display())]
-    Factory {
-        /// Plugin name.
-        plugin: String,
-        /// Library path.
-        path: PathBuf,
-        /// Group name.
-        group: String,
-        /// The plugin's error.
-        error: Box<PluginError>,
-    },
-}
+use crate::error::PluginLoadError;
 
 /// A library that was refused, with the summarised cause.
 #[derive(Debug, Clone)]

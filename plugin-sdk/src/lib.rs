@@ -71,6 +71,7 @@ pub mod colour;
 pub mod group;
 pub mod lanes;
 pub mod params;
+pub mod stage;
 pub mod team;
 pub mod testing;
 pub mod view;
@@ -79,6 +80,7 @@ pub mod xpbd;
 pub use abi::*;
 pub use group::{adapt, guard, ConstraintGroup, Factory, KindSpec, PluginDef};
 pub use params::ParamSpec;
+pub use stage::Stage;
 pub use team::{SharedArray, TeamRef};
 pub use view::Particles;
 

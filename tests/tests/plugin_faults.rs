@@ -7,8 +7,7 @@
 
 use std::process::Command;
 
-use nucleus_core::plugins::PluginLoadError;
-use nucleus_core::world::{BuildError, StepError};
+use nucleus_core::error::{BuildError, PluginLoadError, StepError};
 use nucleus_core::Simulation;
 use nucleus_tests::*;
 

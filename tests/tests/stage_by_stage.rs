@@ -2,7 +2,7 @@
 //! the benchmarks time single groups with) moves the particles exactly as `Simulation::substep`
 //! does: the same prediction, the same contexts, the same order.
 
-use nucleus_core::world::Stage;
+use nucleus_sdk::Stage;
 use nucleus_tests::*;
 
 /// Bits of every coordinate.

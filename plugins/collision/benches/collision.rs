@@ -28,8 +28,9 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
-use nucleus_core::world::{Particles, Stage};
+use nucleus_core::particles::Particles;
 use nucleus_core::{Registry, Scene, Simulation};
+use nucleus_sdk::Stage;
 
 /// The scene, relative to this crate.
 const SCENE: &str = "../../scenes/cloth_heap.toml";

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicU32, Ordering};
 
 use glam::DVec3;
-use nucleus_core::world::BuildError;
+use nucleus_core::error::BuildError;
 use nucleus_core::{Registry, Simulation};
 use nucleus_sdk::PluginError;
 
@@ -29,7 +29,7 @@ fn build_error(text: &str) -> PluginError {
     match Simulation::from_toml(text, &registry()) {
         Ok(_) => panic!("the scene was accepted"),
         Err(BuildError::Plugin { error, .. }) => match *error {
-            nucleus_core::plugins::PluginLoadError::Factory { error, .. } => *error,
+            nucleus_core::error::PluginLoadError::Factory { error, .. } => *error,
             other => panic!("not a factory error: {other}"),
         },
         Err(e) => panic!("not a plugin error: {e}"),

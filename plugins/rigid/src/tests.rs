@@ -3,9 +3,9 @@
 //! step as a dynamically loaded plugin), plus the factory's errors.
 
 use glam::{DQuat, DVec3};
-use nucleus_core::world::Stage;
 use nucleus_core::{Registry, Simulation};
 use nucleus_sdk::prelude::*;
+use nucleus_sdk::Stage;
 
 use crate::{nucleus_plugin, RigidParams, REPORT_COLUMNS};
 
