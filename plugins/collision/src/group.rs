@@ -6,14 +6,15 @@ use glam::DVec3;
 use nucleus_sdk::prelude::*;
 use nucleus_sdk::team::{span, SharedArray, TeamRef};
 
-use crate::bvh::{Aabb, Bvh, HashGrid, Window};
-use crate::contact::{Contact, PairKind};
-use crate::distance;
-use crate::pairs::{self, Separation, Track};
-use crate::params::{CollisionParams, ObjectSettings};
-use crate::shapes::{
-    first_contact, segment_enters_box, triangle_enters_box, Collider, Pose, Shape,
+use crate::broad_phase::bvh::{Aabb, Bvh, HashGrid, Window};
+use crate::colliders::motion::Pose;
+use crate::colliders::shapes::{
+    first_contact, segment_enters_box, triangle_enters_box, Collider, Shape,
 };
+use crate::narrow_phase::distance;
+use crate::narrow_phase::pairs::{self, Separation, Track};
+use crate::params::{CollisionParams, ObjectSettings};
+use crate::response::contact::{Contact, PairKind};
 
 /// A pair of primitives whose swept boxes overlap this substep.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
@@ -142,7 +143,7 @@ pub struct CollisionGroup {
     colliders: Vec<Collider>,
     /// Distance from each collider's core to its surface, plus its thickness (m).
     collider_radius: Vec<f64>,
-    /// Sharp features of the colliders' cores ([`crate::shapes::Features`]): points and
+    /// Sharp features of the colliders' cores ([`crate::colliders::shapes::Features`]): points and
     /// edges in their collider's rest frame, with the collider's index.
     feat_points: Vec<(u32, DVec3)>,
     feat_edges: Vec<(u32, [DVec3; 2])>,

@@ -41,7 +41,7 @@
 //!   corners, capsule ends, the sphere's centre — against every face, and against curve
 //!   edges) and **feature edge–edge** (every edge of the core — box edges, the capsule's axis
 //!   — against every edge), the last two with the ordinary point–triangle and edge–edge
-//!   tests of [`ccd`], the feature moving rigidly with its collider
+//!   tests of [`ccd`](narrow_phase::ccd), the feature moving rigidly with its collider
 //!   ([`shapes::Shape::features`]). A thin capsule or a box edge sweeping through the middle
 //!   of a coarse triangle is stopped by the triangle, not only by its vertices. The plane
 //!   needs no feature: a half-space's distance to a triangle is attained at a vertex.
@@ -59,7 +59,7 @@
 //! A group in which no pair can ever collide reports no constraint, so the core never
 //! schedules it: a scene without colliding objects pays nothing.
 //!
-//! ## Broad phase ([`bvh`])
+//! ## Broad phase ([`bvh`](broad_phase::bvh))
 //!
 //! Axis-aligned bounding box trees over the swept edges and faces — each primitive's box
 //! covers its particles at `x0` and `x − s`, grown by its thickness and a margin
@@ -85,16 +85,16 @@
 //!
 //! Most candidates of a cloth never touch: a flat 64 × 64 sheet has 27,000 edge pairs whose
 //! boxes overlap and none within the thickness. A pass tests a pair the first time in full,
-//! keeping its start and end distances and relative motion ([`pairs::Separation`]); until the
+//! keeping its start and end distances and relative motion ([`pairs::Separation`](narrow_phase::pairs::Separation)); until the
 //! next broad phase it skips the pair while that separation, less twice the most any of its
-//! particles has moved since, still proves it apart ([`pairs::Separation::certainly_apart`]) —
+//! particles has moved since, still proves it apart ([`pairs::Separation::certainly_apart`](narrow_phase::pairs::Separation::certainly_apart)) —
 //! the verdict the full test would give, so the contacts and positions are the same bits.
 //! A collider's feature against a face or an edge keeps the separation of the mesh test it
 //! runs on the feature's track, and a vertex against a plane or a sphere its signed distances
-//! at the ends of its track and the track's length ([`pairs::collider_separation`]); the final
+//! at the ends of its track and the track's length ([`pairs::collider_separation`](narrow_phase::pairs::collider_separation)); the final
 //! projections and the penetration statistic skip on them too. The separations' distances are
-//! taken by [`distance::segment_segment_distance_squared`] and
-//! [`distance::point_triangle_distance_squared`], the robust ones' to rounding.
+//! taken by [`distance::segment_segment_distance_squared`](narrow_phase::distance::segment_segment_distance_squared) and
+//! [`distance::point_triangle_distance_squared`](narrow_phase::distance::point_triangle_distance_squared), the robust ones' to rounding.
 //!
 //! Measured back to back (2026-11-23, the 2-core VM, the first 40 frames, mean ms per frame,
 //! before = commit 7d55671, after = the skip, the split and the `0.3 r` margin):
@@ -121,23 +121,23 @@
 //! | `cloth_heap` | 1,010 / 0 → 407 / 704 | 1,252 → 1,063 | 937 → **771** |
 //! | `collision_sweep` | 633 / 0 → 345 / 235 | 8.1 → 6.9 | 8.1 → 7.6 |
 //!
-//! ## Narrow phase ([`ccd`], [`distance`])
+//! ## Narrow phase ([`ccd`](narrow_phase::ccd), [`distance`](narrow_phase::distance))
 //!
 //! Vertex–face and edge–edge (and the colliders' features, on their rigid tracks): the
-//! conservative continuous tests of [`ccd`] (no false negative), giving the earliest
+//! conservative continuous tests of [`ccd`](narrow_phase::ccd) (no false negative), giving the earliest
 //! `t ∈ [0, 1]` at which the pair comes within `d` — for every pair that moves farther over
 //! the substep than it is apart, the only pairs that can pass through each other. A pair
 //! that moves less than its start distance cannot cross: its end state decides (a contact at
 //! `t = 1` if it ends within `d`), which spares the bisection the grazing and resting
-//! contacts ([`pairs`], the prefilter). Particle–particle: a quadratic in closed form
-//! ([`pairs::point_point_toi`]). Vertex–collider: the same question against the collider's
+//! contacts ([`pairs`](narrow_phase::pairs), the prefilter). Particle–particle: a quadratic in closed form
+//! ([`pairs::point_point_toi`](narrow_phase::pairs::point_point_toi)). Vertex–collider: the same question against the collider's
 //! exact signed distance, in the collider's frame ([`shapes::first_contact`]). The closest
 //! points at `t` fix the contact's weights and normal for the rest of the substep
-//! ([`pairs`]); a collider's feature is folded into the contact's offset and its motion into
-//! the contact's collider displacement ([`pairs::fold_kinematic`]), so friction and
+//! ([`pairs`](narrow_phase::pairs)); a collider's feature is folded into the contact's offset and its motion into
+//! the contact's collider displacement ([`pairs::fold_kinematic`](narrow_phase::pairs::fold_kinematic)), so friction and
 //! restitution see the motion relative to the collider.
 //!
-//! ## Response ([`contact`])
+//! ## Response ([`contact`](response::contact))
 //!
 //! Each contact is the inequality `C(x) = n · Σₖ wₖ xₖ − d ≥ 0` on the end-of-substep
 //! positions, projected by inverse masses (momentum-conserving; kinematic particles never
@@ -216,21 +216,20 @@
 //! Order 100: collisions run after the structural kinds in every column, so they have the
 //! last word on positions. Importance 4: four detection/resolution passes per substep.
 
-pub mod bvh;
-pub mod ccd;
-pub mod contact;
-pub mod distance;
+pub mod broad_phase;
+pub mod colliders;
 pub mod group;
-pub mod pairs;
+pub mod narrow_phase;
 pub mod params;
-pub mod shapes;
+pub mod response;
 
 #[cfg(test)]
 mod tests;
 
-pub use contact::{Contact, PairKind};
+pub use colliders::shapes;
 pub use group::{Candidate, CollisionGroup, FrameStats};
 pub use params::CollisionParams;
+pub use response::contact::{Contact, PairKind};
 
 use nucleus_sdk::KindSpec;
 

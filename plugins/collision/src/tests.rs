@@ -8,7 +8,7 @@
 use glam::DVec3;
 use nucleus_core::{Registry, Simulation};
 
-use crate::distance;
+use crate::narrow_phase::distance;
 use crate::nucleus_plugin;
 
 fn registry() -> Registry {

@@ -1,0 +1,3 @@
+//! The broad phase: the pairs of primitives whose swept boxes overlap.
+
+pub mod bvh;

@@ -1,0 +1,4 @@
+//! The analytic colliders: their shapes and how they move.
+
+pub mod motion;
+pub mod shapes;

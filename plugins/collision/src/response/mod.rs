@@ -1,0 +1,3 @@
+//! The response: the contacts' projection, friction and restitution.
+
+pub mod contact;
