@@ -217,17 +217,21 @@
 //! last word on positions. Importance 4: four detection/resolution passes per substep.
 
 pub mod broad_phase;
+pub mod candidates;
 pub mod colliders;
 pub mod group;
 pub mod narrow_phase;
+mod parallel;
 pub mod params;
+pub mod primitives;
 pub mod response;
 
 #[cfg(test)]
 mod tests;
 
+pub use candidates::Candidate;
 pub use colliders::shapes;
-pub use group::{Candidate, CollisionGroup, FrameStats};
+pub use group::{CollisionGroup, FrameStats};
 pub use params::CollisionParams;
 pub use response::contact::{Contact, PairKind};
 
