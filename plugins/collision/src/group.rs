@@ -175,7 +175,7 @@ impl CollisionGroup {
             prims: &self.prims,
             colliders: &self.colliders,
         };
-        match (self.broad).refresh(geo, &self.cands, x0, x, inv_mass, team) {
+        match self.broad.refresh(geo, &self.cands, x0, x, inv_mass, team) {
             Refreshed::Nothing => return false,
             Refreshed::Full => self.stats.broad_phases += 1,
             Refreshed::Partial => self.stats.refreshes += 1,
@@ -186,7 +186,8 @@ impl CollisionGroup {
 
     /// Hands the candidates just found to the passes.
     fn hand_over(&mut self, x: &[DVec3], team: TeamRef<'_>) {
-        (self.broad).hand_over(&mut self.cands, &self.prims, &self.contacts, x, team);
+        self.broad
+            .hand_over(&mut self.cands, &self.prims, &self.contacts, x, team);
         self.stats.candidates = self.stats.candidates.max(self.cands.list.len());
     }
 
@@ -211,6 +212,39 @@ impl CollisionGroup {
                 return crossing;
             }
         }
+    }
+
+    /// One detection and resolution pass over the candidates ([`Pass::resolve`]).
+    fn resolve_pass(
+        &mut self,
+        x0: &[DVec3],
+        x: &mut [DVec3],
+        inv_mass: &[f64],
+        pushes: &mut [DVec3],
+        team: TeamRef<'_>,
+    ) {
+        self.pass().0.resolve(x0, x, inv_mass, pushes, team);
+    }
+
+    /// The final projections: faces and edges out of the colliders' features, then vertices
+    /// out of the colliders ([`crate::response::push_out`]).
+    fn project_out_of_colliders(
+        &mut self,
+        x0: &[DVec3],
+        x: &mut [DVec3],
+        inv_mass: &[f64],
+        pushes: &mut [DVec3],
+    ) {
+        let (mut pass, _) = self.pass();
+        pass.project_features_out(x0, x, inv_mass, pushes);
+        pass.project_out_of_colliders(x0, x, inv_mass, pushes);
+    }
+
+    /// Follows the push-out of what started the substep inside a collider
+    /// ([`Response::record_push_outs`]).
+    fn record_push_outs(&mut self, x0: &[DVec3], x: &[DVec3], inv_mass: &[f64]) {
+        let (mut pass, response) = self.pass();
+        response.record_push_outs(&mut pass, x0, x, inv_mass);
     }
 
     fn check_state(&self, len: usize) -> Result<(), PluginError> {
@@ -308,13 +342,13 @@ impl ConstraintGroup for CollisionGroup {
         let p = ctx.particles();
         self.check_state(p.x.len().min(p.x0.len()).min(p.inv_mass.len()))?;
         self.response.begin(p.x, h);
-        (self.broad.boxes).follow(&self.prims, p.x0, p.x, p.inv_mass);
+        self.broad.boxes.follow(&self.prims, p.x0, p.x, p.inv_mass);
         let (shift, max_thickness) = (self.broad.boxes.shift, self.prims.max_thickness);
         self.colliders.pose(time, h, shift, max_thickness);
         self.contacts.clear();
         self.find_candidates(p.x0, p.x, p.inv_mass, team);
         leaving::find_impaled(&mut self.colliders, &self.prims, &self.cands, p.x0);
-        (self.broad).over_budget_error(&self.prims, p.x0, p.x, h)
+        self.broad.over_budget_error(&self.prims, p.x0, p.x, h)
     }
 
     /// One pass of detection and resolution; the last pass of the substep also applies
@@ -325,22 +359,20 @@ impl ConstraintGroup for CollisionGroup {
         self.check_state(p.x.len().min(p.x0.len()).min(p.inv_mass.len()))?;
         let (x0, x, w, pushes) = (p.x0, p.x, p.inv_mass, p.pushes);
         self.refresh(x0, x, w, team);
-        self.pass().0.resolve(x0, x, w, pushes, team);
+        self.resolve_pass(x0, x, w, pushes, team);
         if last {
             self.response.friction(&mut self.contacts, x0, x, w, pushes);
             // Friction and the sweeps moved particles: the final projections must see every
             // pair near a collider now, not only those of the pass's candidates.
             self.refresh(x0, x, w, team);
-            let (mut pass, _) = self.pass();
-            pass.project_features_out(x0, x, w, pushes);
-            pass.project_out_of_colliders(x0, x, w, pushes);
+            self.project_out_of_colliders(x0, x, w, pushes);
             let unresolved = self.fail_safe(x0, x, w, team);
-            let (mut pass, response) = self.pass();
-            response.record_push_outs(&mut pass, x0, x, w);
+            self.record_push_outs(x0, x, w);
             self.stats.unresolved += unresolved;
             self.stats.contacts = self.stats.contacts.max(self.contacts.len());
         }
-        (self.broad).over_budget_error(&self.prims, x0, x, self.response.h)
+        self.broad
+            .over_budget_error(&self.prims, x0, x, self.response.h)
     }
 
     /// The deepest penetration of the substep, then, at the velocity level, the push-outs'
@@ -355,7 +387,8 @@ impl ConstraintGroup for CollisionGroup {
         let pen = self.penetration(p.x, &self.colliders.pose1, true);
         self.stats.max_penetration = self.stats.max_penetration.max(pen);
         self.response.drop_push_out_velocity(p.v);
-        (self.response).restitution(&mut self.contacts, &mut p, h, threshold);
+        self.response
+            .restitution(&mut self.contacts, &mut p, h, threshold);
         Ok(())
     }
 

@@ -401,7 +401,7 @@ fn the_starts_kept_over_refreshes_are_those_taken_afresh() {
                 .filter(|s| !s.distance.is_nan())
                 .count();
         }
-        g.pass().0.resolve(&x0, &mut x, &inv_mass, &mut [], team);
+        g.resolve_pass(&x0, &mut x, &inv_mass, &mut [], team);
         for k in 0..g.cands.list.len() {
             let kind = g.cands.list[k].kind;
             let Some(slot) = start_slot(g.cands.starts.split, k) else {
