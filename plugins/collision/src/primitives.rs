@@ -2,7 +2,7 @@
 //! surface of tetrahedral solids), each object's settings, and which objects may meet.
 //!
 //! An object's primitives are listed together, so each object owns a contiguous range of
-//! each list ([`Primitives::object_ranges`]); the objects are the group's *local* objects,
+//! each list (`Primitives::object_ranges`); the objects are the group's *local* objects,
 //! numbered in the order of its targets.
 
 use glam::DVec3;
@@ -16,9 +16,10 @@ use crate::params::ObjectSettings;
 pub(crate) const NO_FACE: u32 = u32::MAX;
 
 /// Most thickness of a self-colliding object, in multiples of its mean rest edge length
-/// ([`Primitives::build`] refuses more). At 4 a vertex of a regular triangle mesh keeps
+/// (`Primitives::build` refuses more). At 4 a vertex of a regular triangle mesh keeps
 /// about a hundred pairs with its own surface in the rest shape (pairs within
-/// `2 × thickness`, about 8 edge lengths).
+/// `2 × thickness`, about 8 edge lengths); much thicker, millions
+/// (`docs/decisions/collision_candidate_budget.md`).
 pub const MAX_THICKNESS_PER_EDGE: f64 = 4.0;
 
 /// The primitives of the target objects and their settings.

@@ -4,7 +4,7 @@
 //! once over the rest shape and **refit** every substep, and a spatial hash grid over the
 //! unconnected particles. Each box covers its primitive's particles at `x0` and `x − shift`,
 //! grown by its thickness and a margin ([`swept`]). The candidates are collected once per
-//! substep in sorted order ([`BroadPhase::find_all`]): the vertex–face and edge–edge queries
+//! substep in sorted order (`BroadPhase::find_all`): the vertex–face and edge–edge queries
 //! (one per vertex, one per edge) are split over the host's thread team in contiguous
 //! ranges whose hits are joined in order, so the list is the same on any number of threads.
 //!
@@ -12,7 +12,7 @@
 //! primitive's tight swept box is checked against the box its candidates were found with,
 //! and only the primitives that left their boxes look for new pairs ([`refresh`]).
 //!
-//! A group holds at most a budget of candidates ([`candidate_budget`]); beyond it the
+//! A group holds at most a budget of candidates (`candidate_budget`); beyond it the
 //! substep fails with an error naming the object that moved farthest, instead of holding
 //! tens of millions of pairs for minutes.
 
@@ -42,7 +42,8 @@ const MIN_CANDIDATE_BUDGET: usize = 1 << 20;
 /// vertex), at least [`MIN_CANDIDATE_BUDGET`]. The shipped scenes peak at about 8 per
 /// primitive; a dense crumple stacks a few layers within reach, and fast relative motion a
 /// few times more. Beyond the budget the substep fails with an error naming the fastest
-/// object ([`BroadPhase::over_budget_error`]) instead of holding every pair.
+/// object ([`BroadPhase::over_budget_error`]) instead of holding every pair
+/// (`docs/decisions/collision_candidate_budget.md`).
 fn candidate_budget(primitives: usize, rest_pairs: usize) -> usize {
     (64 * primitives)
         .max(8 * rest_pairs)

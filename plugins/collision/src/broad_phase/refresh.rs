@@ -3,13 +3,14 @@
 //! Before every pass, and at the start of the next substep, each primitive's tight swept box
 //! is checked against the box its candidates were found with. Only the primitives that left
 //! their boxes get new boxes and look for new pairs (a query per vertex, face or edge that
-//! left, then a merge into the sorted list, [`merge_kept`]); every other candidate is kept.
-//! More than an eighth of the primitives out ([`REFRESH_MAX_SHARE`]), unconnected particles
+//! left, then a merge into the sorted list, `merge_kept`); every other candidate is kept.
+//! More than an eighth of the primitives out (`REFRESH_MAX_SHARE`), unconnected particles
 //! (their hash grid is not updated in part), a collider out of its box, or a changed mass (a
-//! pin released) takes a full broad phase instead ([`FoundWith::hold`]).
+//! pin released) takes a full broad phase instead (`FoundWith::hold`).
 //!
 //! The list then holds every pair whose boxes overlap, so no pair that can touch is ever
-//! skipped. A full broad phase would also list the pairs within a fresh margin of a primitive
+//! skipped (a property test checks it against full broad phases over rounds of random
+//! crumpling: `a_refresh_keeps_every_pair_a_full_broad_phase_finds`). A full broad phase would also list the pairs within a fresh margin of a primitive
 //! that stayed in its older box; such a pair can only come within reach by leaving the
 //! boxes, and is then tested from the next pass.
 

@@ -9,7 +9,8 @@
 //! of `x0` and `x − shift`. So the boxes of any pair that can touch overlap, whatever the
 //! shift, as long as every box of the substep (the colliders' and features' included) takes
 //! the same one. A cloth carried fast then has boxes the size of its relative motion instead
-//! of its travel. A motion that is not shared is not helped.
+//! of its travel; a motion that is not shared is not helped
+//! (`docs/decisions/collision_broad_phase.md`).
 
 use glam::DVec3;
 

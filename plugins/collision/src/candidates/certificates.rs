@@ -8,10 +8,19 @@
 //! motion is counted from the end positions the candidates were found at (`x_ref`), one
 //! distance per particle, kept current through a pass.
 //!
+//! A collider's feature against a face or an edge keeps the separation of the mesh test it
+//! runs on the feature's track, and a vertex against a plane or a sphere its signed distances
+//! at the ends of its track and the track's length ([`pairs::collider_separation`]); the
+//! final projections and the penetration statistic skip on them too
+//! (`Candidates::certainly_beyond_reach`). The separations' distances are taken by
+//! [`crate::narrow_phase::distance::segment_segment_distance_squared`] and
+//! [`crate::narrow_phase::distance::point_triangle_distance_squared`], the robust ones' to
+//! rounding.
+//!
 //! The first pass after the candidates were found takes the separations they lack ahead of
-//! its visits, over the thread team ([`Candidates::take_separations_ahead`]); a refresh
+//! its visits, over the thread team (`Candidates::take_separations_ahead`); a refresh
 //! within the substep carries the separations of the pairs it keeps
-//! ([`Candidates::adopt`]).
+//! (`Candidates::adopt`).
 
 use glam::DVec3;
 use nucleus_sdk::team::{span, SharedArray, TeamRef};

@@ -1,11 +1,11 @@
 //! The candidate pairs of the substep: the pairs of primitives whose swept boxes overlap
-//! ([`Candidates`]), kept sorted with their contact distances and particles; which pairs may
+//! (`Candidates`), kept sorted with their contact distances and particles; which pairs may
 //! be candidates at all ([`filter`], [`rest_pairs`]); the proofs that a pair is apart, which
 //! let a pass skip it ([`certificates`]); and what each collider pair was at the substep's
 //! start ([`starts`]).
 //!
 //! The list is found by the broad phase ([`crate::broad_phase`]) and handed over whole
-//! ([`Candidates::adopt`]): in sorted order — kinds in [`PairKind`] order, the first
+//! (`Candidates::adopt`): in sorted order — kinds in [`PairKind`] order, the first
 //! primitive ascending, the second ascending — so it is the same on any number of threads,
 //! and the passes meet the pairs in the same order.
 

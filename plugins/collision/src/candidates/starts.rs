@@ -1,11 +1,11 @@
 //! What a collider or feature candidate's primitive was at the substep's start, taken once:
-//! whether it started inside, how far, and how it leaves ([`StartOf`]). It depends only on
+//! whether it started inside, how far, and how it leaves (`StartOf`). It depends only on
 //! the substep's start, so each pair's answer is kept for the substep (and carried over a
 //! refresh with the separations) instead of being taken again on every pass, in each sweep
 //! of the final projections and for the push-out's record.
 //!
 //! Only the vertex–collider and feature pairs, the first and last runs of the sorted list,
-//! have a slot ([`start_slot`]).
+//! have a slot (`start_slot`).
 
 use glam::DVec3;
 

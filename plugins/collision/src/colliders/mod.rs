@@ -1,6 +1,6 @@
 //! The analytic colliders: their shapes ([`shapes`]), how they move ([`motion`]), the sharp
 //! features of their cores ([`features`]), and the group's colliders posed over the current
-//! substep ([`Colliders`]).
+//! substep (`Colliders`).
 
 pub mod features;
 pub mod motion;

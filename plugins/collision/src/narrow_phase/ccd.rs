@@ -91,37 +91,18 @@
 //! `δ = tolerance × E`, `E` the largest coordinate of any `eᵏ` (the size of the relative
 //! configuration with its motion); default [`DEFAULT_TOLERANCE`] `= 1e-6`. `η` bounds the
 //! false positives; in practice they are much rarer, because an accepted cell must also
-//! survive the hull test, whose only slack is second order in the cell size: measured on
-//! near misses (a point passing outside a triangle edge, skew and parallel edges passing
-//! each other, static or sliding, random orientation, 200 each, `E ≈ 1–2`), there is no
-//! false positive for gaps down to `1e-12` at tolerances `1e-6` and `1e-9`; at `1e-3` the
-//! first ones appear at a gap of `1e-12` (none at `1e-10`). On the 1,240 reference
-//! queries (zero thickness; release build; mean cells per query; mean time, noisy on the
-//! shared 2-core machine):
-//!
-//! | tolerance | false positives | false negatives | cells/query | µs/query |
-//! | --- | --- | --- | --- | --- |
-//! | 1e-3  | 4 | 0 | 21.7 | 5.8 |
-//! | 1e-4  | 0 | 0 | 31.3 | 8.6 |
-//! | 1e-5  | 0 | 0 | 40.3 | 11.2 |
-//! | **1e-6** (default) | **0** | **0** | **49.8** | **13.8** |
-//! | 1e-8  | 0 | 0 | 68.7 | 18.1 |
-//! | 1e-10 | 0 | 0 | 89.0 | 29.0 |
-//! | 1e-12 | 0 | 0 | 109.7 | 37.7 |
-//!
-//! (For comparison, the dataset's README reports for ipctk 1.6.1's Tight-Inclusion CCD at
-//! tolerance 1e-6: 89 false positives, 1 false negative — a static point on a static
-//! triangle — and two queries over 10 s.) Most reference queries collide (they come from
-//! large simulation steps), so the mean is dominated by the deep search a contact needs,
-//! about `log₂(1/tolerance)` halvings per parameter; a pair whose swept boxes are apart
-//! costs tens of nanoseconds.
+//! survive the hull test, whose only slack is second order in the cell size. A query that
+//! finds a contact costs about `log₂(1/tolerance)` halvings per parameter; a pair whose swept
+//! boxes are apart costs tens of nanoseconds. The default was chosen on near misses and a
+//! reference set of 1,240 queries, with no false positive or negative
+//! (`docs/decisions/collision_ccd_tolerance.md`).
 //!
 //! ## Bounded work, no allocation
 //!
-//! A query examines at most [`CcdOptions::max_boxes`] cells ([`DEFAULT_MAX_BOXES`] =
-//! 20,000, about 5 ms; the reference set needs at most 584). The pending cells live in a
-//! fixed array on the stack: 64 cells (5 kB) first, and a query that outgrows it is run
-//! again with 2,048 (150 kB of stack; deterministic, so only time is lost). When either bound is reached the answer is
+//! A query examines at most [`CcdOptions::max_boxes`] cells ([`DEFAULT_MAX_BOXES`]). The
+//! pending cells live in a fixed array on the stack: 64 cells (5 kB) first, and a query that
+//! outgrows it is run again with 2,048 (150 kB of stack; deterministic, so only time is
+//! lost). When either bound is reached the answer is
 //! `Some(t)` with the earliest start of every cell not yet discarded — still never later
 //! than the true contact, so still no false negative — flagged as not certified. A cell at
 //! the finest parameter resolution (50 halvings of `t`) that can be neither discarded nor

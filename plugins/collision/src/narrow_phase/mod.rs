@@ -1,5 +1,5 @@
 //! The narrow phase: whether and when a candidate pair comes within its contact distance over
-//! the substep, and the contact it then gets ([`Pass::detect`]).
+//! the substep, and the contact it then gets (`Pass::detect`).
 //!
 //! Vertex–face and edge–edge (and the colliders' features, on their rigid tracks): the
 //! conservative continuous tests of [`ccd`] (no false negative), giving the earliest

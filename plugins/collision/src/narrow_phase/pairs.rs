@@ -41,11 +41,9 @@ use crate::narrow_phase::distance;
 use crate::response::contact::{Contact, PairKind};
 
 /// The continuous test's tuning: the default relative tolerance (1e-6 of the configuration's
-/// size). A looser 1e-4 costs about a third on grazing cloth contacts, but for fast bodies the
-/// size includes the whole substep's sweep (1.7 m for 100 m/s at 60 Hz), so its accepted cells
-/// can sit 0.2 mm off the true time of impact: the contact normal and weights taken there let
-/// a 100 m/s shard end 0.1 mm from a sheet it should keep 4 mm from
-/// (`a_small_stiff_mesh_at_100_m_per_s_never_crosses_a_pinned_sheet`). Not worth it.
+/// size). For fast bodies the size includes the whole substep's sweep, so a looser tolerance
+/// takes contact normals and weights off the true time of impact and lets a fast shard end
+/// inside a sheet's thickness (`docs/decisions/collision_ccd_tolerance.md`).
 pub const CCD_OPTIONS: ccd::CcdOptions = ccd::CcdOptions {
     tolerance: ccd::DEFAULT_TOLERANCE,
     max_boxes: ccd::DEFAULT_MAX_BOXES,

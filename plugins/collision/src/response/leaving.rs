@@ -1,19 +1,19 @@
 //! How a primitive that starts a substep inside an analytic collider leaves it
-//! ([`Leaves`]): normally (back out the way it came, as a contact and the fail-safe allow),
+//! (`Leaves`): normally (back out the way it came, as a contact and the fail-safe allow),
 //! through a box's feature, or along a capsule's axis.
 //!
 //! A box's corners and edges are its surface, so an edge or face can start a substep partly
 //! inside the box with its vertices outside. A feature pair whose edge or face starts in the
 //! box's interior, or whose closest point to the feature is inside it, has no contact and no
 //! fail-safe test — both would hold it inside: the final projection pushes it out *through*
-//! the feature ([`Geometry::feature_side`]).
+//! the feature (`Geometry::feature_side`).
 //!
 //! A capsule's axis can pass through a face whose vertices are all outside it: the face has
 //! no direction out, and the way off is along the axis and over an end. For the substep, a
-//! cloth whose face the axis pierces is *impaled* on that capsule ([`find_impaled`]), and
+//! cloth whose face the axis pierces is *impaled* on that capsule (`find_impaled`), and
 //! every one of its vertices, edges and faces that starts inside the capsule moves along the
 //! axis instead of radially, towards the end nearer to where the axis meets it
-//! ([`push_off_axis`], [`slide_off_axis`]). Pushed radially, the vertices around the axis
+//! (`push_off_axis`, `slide_off_axis`). Pushed radially, the vertices around the axis
 //! would open a hole whose edges the cloth would have to stretch over.
 
 use glam::DVec3;

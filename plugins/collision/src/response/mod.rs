@@ -3,13 +3,13 @@
 //! Each contact is the inequality `C(x) = n · Σₖ wₖ xₖ − d ≥ 0` on the end-of-substep
 //! positions, projected by inverse masses ([`contact`]; momentum-conserving, kinematic
 //! particles never move), in every pass (the narrow phase's
-//! [`crate::narrow_phase::Pass::resolve`]). In the last pass of the substep, in this order:
+//! `Pass::resolve`). In the last pass of the substep, in this order:
 //! **friction** (Coulomb at the position level, once per substep, then one more normal
-//! sweep: [`Response::friction`]), the **final projections** out of the analytic colliders
+//! sweep: `Response::friction`), the **final projections** out of the analytic colliders
 //! and the **push-out** of what started inside them ([`push_out`], [`leaving`]), and the
 //! **fail-safe** ([`fail_safe`]). At the velocity level, after the substep:
-//! **restitution** ([`Response::restitution`]) and the velocity the push-outs gave taken off
-//! ([`Response::drop_push_out_velocity`]).
+//! **restitution** (`Response::restitution`) and the velocity the push-outs gave taken off
+//! (`Response::drop_push_out_velocity`).
 
 pub mod contact;
 pub mod fail_safe;

@@ -3,14 +3,14 @@
 //!
 //! In the last pass of a substep, every face and edge near a collider's feature is pushed out
 //! to its contact distance along the current separating direction
-//! ([`Pass::project_features_out`]), then every vertex is projected out of the colliders by
-//! their exact signed distance ([`Pass::project_out_of_colliders`]): no vertex ends inside
+//! (`Pass::project_features_out`), then every vertex is projected out of the colliders by
+//! their exact signed distance (`Pass::project_out_of_colliders`): no vertex ends inside
 //! one. A primitive that *started* the substep deeper than its contact distance (a cloth
 //! placed through a collider) is moved out by at most `push_out_speed · h` instead, here and
-//! in the contacts ([`push_out_reach`]): it leaves over several substeps, its neighbours
+//! in the contacts (`push_out_reach`): it leaves over several substeps, its neighbours
 //! carried along by the stretch constraints, instead of being thrown out in one jump that
 //! tears the cloth. Once out, the outward speed the pushes gave it is taken off its velocity
-//! ([`without_push_velocity`]): the push moves it and does not launch it.
+//! (`without_push_velocity`): the push moves it and does not launch it.
 
 use glam::DVec3;
 

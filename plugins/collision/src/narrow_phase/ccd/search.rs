@@ -14,10 +14,9 @@ use super::CcdResult;
 const MAX_LEVEL: u8 = 50;
 
 /// Once the search goes by time, `t` is halved unless the spatial spread of the corner
-/// values exceeds the temporal one by more than this factor's inverse (measured on the
-/// reference set and on grazing contacts with thickness: 1 (no preference) needs up to 20×
-/// more cells on a sphere grazing a face; 0 (always `t` first) wastes the work bound on
-/// long contacts; 1/100 to 1/10 do equally well).
+/// values exceeds the temporal one by more than this factor's inverse: no preference costs
+/// many more cells on grazing contacts, time always first wastes the work bound on long
+/// contacts (`docs/decisions/collision_ccd_tolerance.md`).
 const TIME_BIAS: f64 = 1.0 / 32.0;
 
 /// What examining a cell tells.
