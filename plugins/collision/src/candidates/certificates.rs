@@ -190,6 +190,7 @@ impl Candidates {
 
     /// Takes and keeps candidate `k`'s separation over `[x0, x]` ([`Self::separation_at`];
     /// `None` for the kinds without one), the first time a pass tests it.
+    #[inline]
     pub fn take_separation(
         &mut self,
         k: usize,

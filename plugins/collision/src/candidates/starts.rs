@@ -96,6 +96,7 @@ impl Candidates {
     /// substep has not yet ([`leaving::take_start`]); [`StartOf::UNKNOWN`] for the kinds
     /// without one. It must not be asked before the substep's impaled objects are found
     /// ([`leaving::find_impaled`]).
+    #[inline]
     pub fn start_of(&mut self, k: usize, geo: Geometry<'_>, x0: &[DVec3]) -> StartOf {
         let Some(slot) = start_slot(self.starts.split, k) else {
             return StartOf::UNKNOWN;

@@ -156,6 +156,7 @@ impl PushOuts {
 impl Geometry<'_> {
     /// A vertex–collider candidate's collider, particle and contact distance (m), if it is one
     /// and its particle is dynamic.
+    #[inline]
     fn dynamic_collider_pair(
         &self,
         cand: Candidate,
