@@ -9,7 +9,7 @@
 //! `scene_figures` (run it with `cargo test --release -p nucleus-tests --test collision_cloth
 //! -- --ignored --nocapture` after `cargo xtask plugins --release`).
 
-#[path = "../../plugins/collision/src/distance.rs"]
+#[path = "../../plugins/collision/src/narrow_phase/distance.rs"]
 #[allow(dead_code)]
 mod distance;
 

@@ -7,7 +7,7 @@
 //! orientation predicates) finds no cloth triangle crossing the capsule's axis, the box or the
 //! paddle; the cloth was really hit (it ends far behind its starting plane).
 
-#[path = "../../plugins/collision/src/distance.rs"]
+#[path = "../../plugins/collision/src/narrow_phase/distance.rs"]
 #[allow(dead_code)]
 mod distance;
 

@@ -6,7 +6,7 @@
 //! to rest without jitter, Coulomb friction on an incline (sticks below the cone, slides at
 //! g(sin θ − μd cos θ) above), and degenerate input that never produces a NaN.
 
-#[path = "../../plugins/collision/src/distance.rs"]
+#[path = "../../plugins/collision/src/narrow_phase/distance.rs"]
 #[allow(dead_code)]
 mod distance;
 

@@ -6,7 +6,7 @@
 //! it costs nothing), and one object whose two layers are closer than twice its thickness in
 //! the rest shape (they still collide, at a reduced distance, and never cross).
 
-#[path = "../../plugins/collision/src/distance.rs"]
+#[path = "../../plugins/collision/src/narrow_phase/distance.rs"]
 #[allow(dead_code)]
 mod distance;
 

@@ -18,7 +18,7 @@
 //!   (which runs after the rigid group) leaves its touching particles off their rigid goals
 //!   at the end of a substep — the largest such offset is printed.
 
-#[path = "../../plugins/collision/src/distance.rs"]
+#[path = "../../plugins/collision/src/narrow_phase/distance.rs"]
 #[allow(dead_code)]
 mod distance;
 

@@ -9,7 +9,7 @@ use std::time::Duration;
 
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
 use glam::DVec3;
-use nucleus_collision::ccd::{edge_edge_toi, point_triangle_toi};
+use nucleus_collision::narrow_phase::ccd::{edge_edge_toi, point_triangle_toi};
 
 /// `(point–triangle?, start, end)` of every query of one file of the reference set.
 fn load(name: &str) -> Vec<(bool, [DVec3; 4], [DVec3; 4])> {

@@ -7,7 +7,8 @@ use nucleus_sdk::prelude::*;
 use nucleus_sdk::serde_json::{self, Value};
 use serde::Deserialize;
 
-use crate::shapes::{Collider, Key, Motion, Shape};
+use crate::colliders::motion::{Key, Motion};
+use crate::colliders::shapes::{Collider, Shape};
 
 /// Default thickness (m): the collision radius of every vertex, edge and face.
 pub const DEFAULT_THICKNESS: f64 = 0.005;
@@ -429,7 +430,9 @@ fn parse_collider(i: usize, v: &Value, default_layers: u32) -> Result<Collider, 
                 return Err(bad("`half_extents` must be positive".into()));
             }
             let rot = match s.rotation {
-                Some(r) if finite3(&r) => crate::shapes::euler_xyz_degrees(DVec3::from_array(r)),
+                Some(r) if finite3(&r) => {
+                    crate::colliders::motion::euler_xyz_degrees(DVec3::from_array(r))
+                }
                 Some(_) => return Err(bad("`rotation` must be finite".into())),
                 None => glam::DQuat::IDENTITY,
             };

@@ -8,7 +8,7 @@
 use glam::DVec3;
 use nucleus_core::{Registry, Simulation};
 
-use crate::distance;
+use crate::narrow_phase::distance;
 use crate::nucleus_plugin;
 
 fn registry() -> Registry {
@@ -408,7 +408,7 @@ fn layers_exclusions_and_flags_decide_what_a_particle_passes_through() {
 #[test]
 fn rest_reach_keeps_far_pairs_at_the_thickness_and_close_ones_at_a_fraction_of_their_rest_distance()
 {
-    use crate::group::{rest_reach, REST_FRACTION};
+    use crate::candidates::rest_pairs::{rest_reach, REST_FRACTION};
     assert_eq!(rest_reach(0.01, 0.02 * 0.02), Some(0.01));
     assert_eq!(rest_reach(0.01, 0.01 * 0.01), Some(0.01));
     let close = rest_reach(0.01, 0.006 * 0.006).unwrap();

@@ -14,7 +14,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use glam::DVec3;
-use nucleus_collision::ccd::{
+use nucleus_collision::narrow_phase::ccd::{
     edge_edge_ccd, edge_edge_toi, point_triangle_ccd, point_triangle_toi, CcdOptions,
 };
 

@@ -1,6 +1,6 @@
 //! From a pair of primitives moving linearly over a substep to a [`Contact`]: the
-//! continuous narrow phase ([`crate::ccd`]) gives the earliest time of impact `t` at which the
-//! pair comes within the distance `d`; the closest points at `t` ([`crate::distance`]) give
+//! continuous narrow phase ([`crate::narrow_phase::ccd`]) gives the earliest time of impact `t` at which the
+//! pair comes within the distance `d`; the closest points at `t` ([`crate::narrow_phase::distance`]) give
 //! the weights and the normal, which then stay fixed for the substep (the contact plane of
 //! the impact).
 //!
@@ -35,17 +35,15 @@
 
 use glam::DVec3;
 
-use crate::ccd;
-use crate::contact::{Contact, PairKind};
-use crate::distance;
-use crate::shapes::Shape;
+use crate::colliders::shapes::Shape;
+use crate::narrow_phase::ccd;
+use crate::narrow_phase::distance;
+use crate::response::contact::{Contact, PairKind};
 
 /// The continuous test's tuning: the default relative tolerance (1e-6 of the configuration's
-/// size). A looser 1e-4 costs about a third on grazing cloth contacts, but for fast bodies the
-/// size includes the whole substep's sweep (1.7 m for 100 m/s at 60 Hz), so its accepted cells
-/// can sit 0.2 mm off the true time of impact: the contact normal and weights taken there let
-/// a 100 m/s shard end 0.1 mm from a sheet it should keep 4 mm from
-/// (`a_small_stiff_mesh_at_100_m_per_s_never_crosses_a_pinned_sheet`). Not worth it.
+/// size). For fast bodies the size includes the whole substep's sweep, so a looser tolerance
+/// takes contact normals and weights off the true time of impact and lets a fast shard end
+/// inside a sheet's thickness (`docs/decisions/collision_ccd_tolerance.md`).
 pub const CCD_OPTIONS: ccd::CcdOptions = ccd::CcdOptions {
     tolerance: ccd::DEFAULT_TOLERANCE,
     max_boxes: ccd::DEFAULT_MAX_BOXES,
@@ -240,7 +238,7 @@ pub fn separation(kind: PairKind, tr: &[Track; 4]) -> Option<Separation> {
 /// frame, against a plane or a sphere: `d0` and `d1` the signed distances at the ends and `m`
 /// the track's length. The signed distance is 1-Lipschitz, so the track stays
 /// `½ (d0 + d1 − m)` away, and the contact test of these two shapes is closed-form
-/// ([`first_contact`](crate::shapes::first_contact)): a certificate proves what it finds.
+/// ([`first_contact`](crate::colliders::shapes::first_contact)): a certificate proves what it finds.
 /// `None` for the others, whose test advances conservatively and may report a grazing track
 /// that stays apart as a hit, so that a pass tests them every time.
 pub fn collider_separation(shape: &Shape, q0: DVec3, q1: DVec3) -> Option<Separation> {
@@ -507,7 +505,7 @@ mod tests {
 
     #[test]
     fn a_vertex_certainly_off_a_plane_or_a_sphere_meets_neither_after_moves_within_the_bound() {
-        use crate::shapes::first_contact;
+        use crate::colliders::shapes::first_contact;
         let shapes = [
             Shape::Plane {
                 point: DVec3::new(0.0, -0.02, 0.0),

@@ -1,5 +1,5 @@
-//! Analytic colliders: plane, sphere, box and capsule, static or moving rigidly (constant
-//! linear and angular velocity about the shape's centre, or keyframes), as pure functions.
+//! Analytic colliders: plane, sphere, box and capsule, as pure functions of their rest
+//! frame (their motion is [`super::motion`]'s).
 //!
 //! A shape is defined in its *rest frame* (the coordinates written in the scene); its pose at
 //! time `t` maps the rest frame to the world, `x = R(t) q + T(t)`. Every query is done in the
@@ -14,7 +14,9 @@
 //! the sphere (quadratic), by conservative advancement for the box and the capsule
 //! (`t ← t + (φ − r)/|q1 − q0|` never steps past the first root).
 
-use glam::{DQuat, DVec3, EulerRot};
+use glam::{DQuat, DVec3};
+
+use super::motion::Motion;
 
 /// A shape in its rest frame. The solid side is the inside (`φ < 0`); for the plane, the
 /// side opposite its normal.
@@ -52,126 +54,6 @@ pub enum Shape {
         /// Radius (m).
         radius: f64,
     },
-}
-
-/// One keyframe of a collider's rigid motion.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Key {
-    /// Time (s).
-    pub time: f64,
-    /// Translation (m).
-    pub translate: DVec3,
-    /// Rotation about the pivot as an axis-angle vector (rad), as in the core's pin motion
-    /// keys.
-    pub rotate: DVec3,
-}
-
-/// How a collider moves.
-#[derive(Clone, Debug, PartialEq)]
-pub enum Motion {
-    /// It does not.
-    Static,
-    /// `x(t) = pivot + exp(ω t)(q − pivot) + v t`.
-    Constant {
-        /// Centre of rotation (m).
-        pivot: DVec3,
-        /// Linear velocity (m/s).
-        velocity: DVec3,
-        /// Angular velocity (rad/s).
-        angular_velocity: DVec3,
-    },
-    /// Keys, interpolated like the core's pinned-vertex keys: translation linearly,
-    /// rotation by slerp, held before the first and after the last key.
-    Keys {
-        /// Centre of rotation (m).
-        pivot: DVec3,
-        /// Keys, by increasing time.
-        keys: Vec<Key>,
-    },
-}
-
-/// A rigid pose: `world = rot · q + trans`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Pose {
-    /// Rotation.
-    pub rot: DQuat,
-    /// Translation (m).
-    pub trans: DVec3,
-}
-
-impl Pose {
-    /// The identity.
-    pub const IDENTITY: Self = Self {
-        rot: DQuat::IDENTITY,
-        trans: DVec3::ZERO,
-    };
-    /// Rest frame to world.
-    #[inline]
-    pub fn apply(&self, q: DVec3) -> DVec3 {
-        self.rot * q + self.trans
-    }
-    /// World to rest frame.
-    #[inline]
-    pub fn inverse_apply(&self, x: DVec3) -> DVec3 {
-        self.rot.inverse() * (x - self.trans)
-    }
-    /// A direction from the rest frame to the world.
-    #[inline]
-    pub fn rotate(&self, n: DVec3) -> DVec3 {
-        self.rot * n
-    }
-    /// The rotation `R` about `pivot` followed by the translation `t`.
-    pub fn about(pivot: DVec3, rot: DQuat, t: DVec3) -> Self {
-        Self {
-            rot,
-            trans: pivot - rot * pivot + t,
-        }
-    }
-}
-
-/// Maya's `xyz` rotation order (rotate about X first, then Y, then Z) from degrees.
-pub fn euler_xyz_degrees(deg: DVec3) -> DQuat {
-    let r = deg * (std::f64::consts::PI / 180.0);
-    DQuat::from_euler(EulerRot::ZYX, r.z, r.y, r.x)
-}
-
-impl Motion {
-    /// The pose at time `t` (s).
-    pub fn pose(&self, t: f64) -> Pose {
-        match self {
-            Motion::Static => Pose::IDENTITY,
-            Motion::Constant {
-                pivot,
-                velocity,
-                angular_velocity,
-            } => Pose::about(
-                *pivot,
-                DQuat::from_scaled_axis(*angular_velocity * t),
-                *velocity * t,
-            ),
-            Motion::Keys { pivot, keys } => {
-                let rot = |k: &Key| DQuat::from_scaled_axis(k.rotate);
-                let (rotation, translate) = match keys.iter().position(|k| k.time > t) {
-                    Some(0) => (rot(&keys[0]), keys[0].translate),
-                    None => {
-                        let k = &keys[keys.len() - 1];
-                        (rot(k), k.translate)
-                    }
-                    Some(i) => {
-                        let (a, b) = (&keys[i - 1], &keys[i]);
-                        let s = ((t - a.time) / (b.time - a.time)).clamp(0.0, 1.0);
-                        (rot(a).slerp(rot(b), s), a.translate.lerp(b.translate, s))
-                    }
-                };
-                Pose::about(*pivot, rotation, translate)
-            }
-        }
-    }
-
-    /// Whether the collider never moves.
-    pub fn is_static(&self) -> bool {
-        matches!(self, Motion::Static)
-    }
 }
 
 /// An analytic collider: a shape, its motion, and its own thickness (added to the
@@ -304,7 +186,7 @@ impl Shape {
     /// or at an edge of each. The triangle's vertices are the vertex–collider test
     /// ([`first_contact`], exact signed distance); the rest is the core's vertices against
     /// the triangle and the core's edges against the triangle's edges, both ordinary
-    /// point–triangle and edge–edge queries of [`crate::ccd`] with thickness `radius` plus
+    /// point–triangle and edge–edge queries of [`crate::narrow_phase::ccd`] with thickness `radius` plus
     /// the thicknesses in play. The plane has none: a half-space's distance to a triangle or
     /// a segment is attained at a vertex.
     pub fn features(&self) -> Features {
@@ -478,6 +360,7 @@ pub fn triangle_enters_box(t: [DVec3; 3], h: DVec3) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::colliders::motion::euler_xyz_degrees;
 
     #[test]
     fn a_segment_enters_a_box_only_through_its_interior() {
@@ -671,43 +554,5 @@ mod tests {
                 }
             }
         }
-    }
-
-    #[test]
-    fn poses_follow_velocity_and_keys() {
-        let m = Motion::Constant {
-            pivot: DVec3::new(1.0, 0.0, 0.0),
-            velocity: DVec3::new(0.0, 2.0, 0.0),
-            angular_velocity: DVec3::new(0.0, 0.0, std::f64::consts::FRAC_PI_2),
-        };
-        let p = m.pose(1.0);
-        // The pivot only translates; a point 1 m from it turns by 90° about z.
-        assert!((p.apply(DVec3::new(1.0, 0.0, 0.0)) - DVec3::new(1.0, 2.0, 0.0)).length() < 1e-12);
-        assert!((p.apply(DVec3::new(2.0, 0.0, 0.0)) - DVec3::new(1.0, 3.0, 0.0)).length() < 1e-12);
-        let q = DVec3::new(0.3, -0.2, 0.7);
-        assert!((p.inverse_apply(p.apply(q)) - q).length() < 1e-12);
-
-        let keys = Motion::Keys {
-            pivot: DVec3::ZERO,
-            keys: vec![
-                Key {
-                    time: 0.0,
-                    translate: DVec3::ZERO,
-                    rotate: DVec3::ZERO,
-                },
-                Key {
-                    time: 2.0,
-                    translate: DVec3::new(4.0, 0.0, 0.0),
-                    rotate: DVec3::new(0.0, std::f64::consts::FRAC_PI_2, 0.0),
-                },
-            ],
-        };
-        let mid = keys.pose(1.0);
-        assert!((mid.trans - DVec3::new(2.0, 0.0, 0.0)).length() < 1e-12);
-        let x = mid.apply(DVec3::Z);
-        let s = std::f64::consts::FRAC_1_SQRT_2;
-        assert!((x - DVec3::new(2.0 + s, 0.0, s)).length() < 1e-12, "{x}");
-        assert_eq!(keys.pose(-1.0), keys.pose(0.0));
-        assert_eq!(keys.pose(5.0), keys.pose(2.0));
     }
 }
