@@ -13,7 +13,8 @@ same for Blender). From it:
   as 0), frames 1..F; `strain_summary` turns them into the mean of each, the peak and its frame,
   and the share of frames whose max is at most 1 %;
 * `penetration(frames, colliders)` -> the deepest any vertex gets below an analytic collider's
-  surface (sphere: R - |x - c|, plane: -(x - p).n), over all frames, and the frame;
+  surface (sphere: R - |x - c|, plane: -(x - p).n), over all frames, its frame, and the
+  deepest in the last frame;
 * `intersecting_pairs(x, triangles)` -> the triangle pairs that share no vertex and intersect
   (a grid broad phase, then an exact-sign segment-triangle test in float64, coplanar pairs in
   2D). `python3 bench/cloth_metrics.py --self-test` checks it on pairs whose answer is known.
@@ -109,12 +110,13 @@ def collider_depth(x, collider):
 
 
 def penetration(frames, colliders):
-    """{name: (deepest depth over all frames and vertices (m), its frame)} per collider."""
+    """{name: (deepest depth over all frames and vertices (m), its frame, the deepest in the
+    last frame (m))} per collider."""
     out = {}
     for name, c in colliders.items():
         per_frame = collider_depth(frames, c).max(axis=1)
         k = int(np.argmax(per_frame))
-        out[name] = (float(per_frame[k]), k)
+        out[name] = (float(per_frame[k]), k, float(per_frame[-1]))
     return out
 
 
@@ -229,8 +231,9 @@ def run_metrics(out_dir, triangles, colliders=None, heights_at=(15, 30)):
     row = {"frames": len(frames) - 1, "time_per_frame_s": float(wall.mean()),
            "time_per_frame_median_s": float(np.median(wall))}
     row.update(strain_summary(smax, srms))
-    for name, (depth, frame) in penetration(frames, colliders or {}).items():
+    for name, (depth, frame, end) in penetration(frames, colliders or {}).items():
         row[f"penetration_{name}_m"], row[f"penetration_{name}_frame"] = depth, frame
+        row[f"penetration_{name}_end_m"] = end
     row["intersecting_pairs_end"] = int(len(intersecting_pairs(frames[-1], triangles)))
     for k in heights_at:
         if k < len(frames):

@@ -291,7 +291,9 @@ def parse_args(argv=None):
                    help="tension/compression stiffness of a hard edge (default 400)")
     p.add_argument("--preroll", type=int, default=6,
                    help="frames of pre-roll that give the cloth its initial velocity")
-    p.add_argument("--sphere-subdivisions", type=int, default=4)
+    p.add_argument("--sphere-subdivisions", type=int, default=5,
+                   help="of the icosphere standing for a sphere (5: 5120 faces, its "
+                   "vertices 0.34 mm outside it at r = 0.3 m)")
     return p.parse_args(argv)
 
 

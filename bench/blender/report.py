@@ -55,9 +55,9 @@ def spread(xs, fmt):
     return fmt(statistics.median(xs)) + (f" ({fmt(min(xs))}–{fmt(max(xs))})" if len(xs) > 1 else "")
 
 
-def penetration_cell(r):
-    parts = [f"{name} {1000 * r[f'penetration_{name}_m']:.2f}"
-             for name in ("sphere", "ground") if f"penetration_{name}_m" in r]
+def penetration_cell(r, suffix="m"):
+    parts = [f"{name} {1000 * r[f'penetration_{name}_{suffix}']:.2f}"
+             for name in ("sphere", "ground") if f"penetration_{name}_{suffix}" in r]
     return ", ".join(parts) if parts else "–"
 
 
@@ -96,8 +96,9 @@ def motion_table(rows):
     """Mean heights after 15 and 30 frames (the fall), Blender's unconverged frames, and
     whether every round gave the same accuracy figures."""
     out = ["| scene | N | solver | mean height after 15 frames (m) | after 30 (m) | "
-           "end max / RMS strain | Blender frames with an unconverged CG | accuracy figures "
-           "identical over rounds |", "|---|---:|---|---:|---:|---:|---:|---|"]
+           "end max / RMS strain | penetration at the end (mm) | Blender frames with an "
+           "unconverged CG | accuracy figures identical over rounds |",
+           "|---|---:|---|---:|---:|---:|---|---:|---|"]
     for (scene, n), runs in by_case(rows).items():
         for solver, rs in runs.items():
             r = rs[-1]
@@ -106,7 +107,7 @@ def motion_table(rows):
                 f"{r.get('mean_height_15', float('nan')):.4f} | "
                 f"{r.get('mean_height_30', float('nan')):.4f} | "
                 f"{pct(r['strain_max_end'])} / {pct(r['strain_rms_end'])} | "
-                f"{r.get('cg_unconverged_frames', '–')} | {'yes' if identical(rs) else 'no'} |")
+                f"{penetration_cell(r, 'end_m')} | {r.get('cg_unconverged_frames', '–')} | {'yes' if identical(rs) else 'no'} |")
     return "\n".join(out)
 
 
