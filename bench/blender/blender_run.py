@@ -169,6 +169,10 @@ def configure_cloth(mod, spec, a, frames):
     s.tension_stiffness = stiffness(spec.compliance, a.tension, mass_scale, avg)
     s.compression_stiffness = stiffness(spec.compression_compliance, a.tension, mass_scale, avg)
     s.air_damping = 100.0 * spec.damping * a.mass / ALPHA
+    if a.bending is not None:
+        s.bending_stiffness = a.bending
+    if a.spring_damping is not None:
+        s.tension_damping = s.compression_damping = s.shear_damping = a.spring_damping
     s.vertex_group_mass = "pin" if spec.pins else ""
     mu = 100.0 * spec.friction_dynamic
     cc.use_collision = bool(spec.colliders)
@@ -289,6 +293,10 @@ def parse_args(argv=None):
     p.add_argument("--mass", type=float, default=0.3, help="Blender's mass a vertex (kg)")
     p.add_argument("--tension", type=float, default=400.0,
                    help="tension/compression stiffness of a hard edge (default 400)")
+    p.add_argument("--bending", type=float,
+                   help="bending stiffness (default: Blender's, 0.5; our scenes have no bend)")
+    p.add_argument("--spring-damping", type=float,
+                   help="tension, compression and shear damping (default: Blender's, 5)")
     p.add_argument("--preroll", type=int, default=6,
                    help="frames of pre-roll that give the cloth its initial velocity")
     p.add_argument("--sphere-subdivisions", type=int, default=5,

@@ -49,6 +49,8 @@ def parse_args(argv=None):
     p.add_argument("--jsonl", help="raw rows [default WORK/results.jsonl]")
     p.add_argument("--doc", default=os.path.join(ROOT, "docs", "blender.md"))
     p.add_argument("--no-doc", action="store_true", help="print the table only")
+    p.add_argument("--tables-only", action="store_true",
+                   help="rebuild the doc from the last session's rows in --jsonl, run nothing")
     p.add_argument("--command", default=None, help=argparse.SUPPRESS)
     return p.parse_args(argv)
 
@@ -111,6 +113,7 @@ def run_one(a, solver, scene, n, sets, rnd, extra=()):
     spec = load_spec(os.path.join(ROOT, "scenes", f"{scene}.toml"), sets)
     row = {"solver": solver, "scene": scene, "N": n, "round": rnd,
            "threads": a.threads if solver == "ours" else a.blender_threads,
+           "blender": {"tension": a.tension, "mass": a.mass, "quality": a.quality},
            "process_wall_s": wall, "process_cpu_s": cpu,
            "load_before": load0, "load_after": os.getloadavg()[0]}
     row.update(cloth_metrics.run_metrics(out, spec.triangles, colliders_of(spec)))
@@ -155,21 +158,21 @@ def git(*args):
 
 
 def context(a, rows):
-    """Date, commit, machine and load of the session, for the doc."""
+    """Date, commit, command, machine and load of the session, for the doc and the rows."""
     loads = [r["load_before"] for r in rows] + [r["load_after"] for r in rows]
     cpu = next((line.split(":", 1)[1].strip() for line in open("/proc/cpuinfo")
                 if line.startswith("model name")), platform.processor())
-    return {"date": datetime.datetime.now().strftime("%Y-%m-%d %H:%M"),
-            "commit": git("rev-parse", "--short", "HEAD"),
-            "dirty": bool(git("status", "--porcelain", "--", "bench", "scenes", "core",
-                              "plugins", "host")),
+    return {"date": rows[0].get("date", datetime.datetime.now().strftime("%Y-%m-%d %H:%M")),
+            "commit": rows[0].get("commit", git("rev-parse", "--short", "HEAD")),
+            "dirty": rows[0].get("dirty", bool(git("status", "--porcelain", "--", "bench",
+                                                   "scenes", "core", "plugins", "host"))),
+            "command": rows[0].get("command", a.command or " ".join(sys.argv)),
             "machine": f"{cpu}, {os.cpu_count()} cores, {platform.system()} {platform.release()}",
-            "load_min": min(loads), "load_max": max(loads),
-            "blender": blender_version(a), "command": a.command or " ".join(sys.argv)}
+            "load_min": min(loads), "load_max": max(loads), "blender": blender_version(a, rows)}
 
 
-def blender_version(a):
-    for scene, n, _ in cases(a):
+def blender_version(a, rows):
+    for scene, n in {(r["scene"], r["N"]) for r in rows}:
         path = os.path.join(a.work, f"{scene}_N{n}", "blender", "run.json")
         if os.path.exists(path):
             with open(path) as f:
@@ -177,29 +180,42 @@ def blender_version(a):
     return "?"
 
 
+def last_session(path):
+    """The rows of the last session appended to the JSONL file at `path`."""
+    with open(path) as f:
+        rows = [json.loads(line) for line in f if line.strip()]
+    return [r for r in rows if (r["date"], r["commit"]) == (rows[-1]["date"], rows[-1]["commit"])]
+
+
 def main(argv=None):
     a = parse_args(argv)
     a.jsonl = a.jsonl or os.path.join(a.work, "results.jsonl")
     os.makedirs(a.work, exist_ok=True)
-    cloth_metrics.self_test()
-    rows = session(a)
-    ctx = context(a, rows)
-    with open(a.jsonl, "a") as f:
-        for r in rows:
-            f.write(json.dumps(dict(r, date=ctx["date"], commit=ctx["commit"])) + "\n")
-    settings = blender_settings(a)
-    text = report.document(rows, ctx, settings, a)
+    if a.tables_only:
+        rows = last_session(a.jsonl)
+        ctx = context(a, rows)
+    else:
+        cloth_metrics.self_test()
+        rows = session(a)
+        ctx = context(a, rows)
+        with open(a.jsonl, "a") as f:
+            for r in rows:
+                keep = {k: ctx[k] for k in ("date", "commit", "dirty", "command")}
+                f.write(json.dumps(dict(r, **keep)) + "\n")
+    settings = blender_settings(a, rows)
+    text = report.document(rows, ctx, settings)
     print(report.table(rows))
     if not a.no_doc:
         with open(a.doc, "w") as f:
             f.write(text)
-        print(f"wrote {a.doc} and appended {len(rows)} rows to {a.jsonl}", file=sys.stderr)
+        done = "" if a.tables_only else f" and appended {len(rows)} rows to {a.jsonl}"
+        print(f"wrote {a.doc}{done}", file=sys.stderr)
 
 
-def blender_settings(a):
-    """{case: Blender's settings} from the runs' run.json."""
+def blender_settings(a, rows):
+    """{case: Blender's settings} from the last runs' run.json."""
     out = {}
-    for scene, n, _ in cases(a):
+    for scene, n in report.by_case(rows):
         path = os.path.join(a.work, f"{scene}_N{n}", "blender", "run.json")
         with open(path) as f:
             out[f"{scene} N={n}"] = json.load(f)["settings"]
