@@ -161,7 +161,7 @@ are matched, what every figure means and what was found on the way:
   (at the scene's own settings) and
   `target/blender-venv/bin/python bench/blender/blender_run.py scenes/SCENE.toml --out DIR
   --threads {a.blender_threads} --tension {a.tension:g} --mass {a.mass:g} --quality {a.quality}`
-  (the drape at N = 128 adds `--set 'objects.0.grid.resolution=[128,128]'` to both).
+  (the drapes at N = 128 add `--set 'objects.0.grid.resolution=[128,128]'` to both).
 * Ours on {a.threads} thread(s); Blender on {a.blender_threads} (its task scheduler started
   with that many workers), at its default quality {a.quality} (steps a frame).
 
